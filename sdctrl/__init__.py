@@ -1,0 +1,65 @@
+"""sdctrl: control-ready state-space models of lightly damped structures.
+
+Implements E. Balmes, *Experimental/analytical predictive models of damped
+structural dynamics*, MIT PhD thesis, 1993: complex-mode identification from
+FRFs (chapter III), normal modes with non-proportional damping (3.3), FE
+models and update (chapter IV), hybrid models, D-struts and structured
+uncertainty (chapter V).  Every model converts to a python-control
+``StateSpace``.
+
+The public names (``../API.md``) are imported lazily so that ``import sdctrl``
+computes nothing and stays fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+# public name -> module that defines it
+_EXPORTS = {
+    # data
+    "FRF": "sdctrl.frf",
+    "estimate_frf": "sdctrl.frf",
+    "read_uff": "sdctrl.io",
+    "write_uff": "sdctrl.io",
+    "save_npz": "sdctrl.io",
+    "load_npz": "sdctrl.io",
+    # identification (chapter III)
+    "initial_poles": "sdctrl.identify",
+    "identify": "sdctrl.identify",
+    "ComplexModeModel": "sdctrl.identify",
+    "normal_modes": "sdctrl.identify",
+    # modal models
+    "NormalModeModel": "sdctrl.modal",
+    # finite elements
+    "FEModel": "sdctrl.fe",
+    "testbed": "sdctrl.testbed",
+    "testbed_frf": "sdctrl.testbed",
+    # hybrid models (chapter V)
+    "hybrid": "sdctrl.hybrid",
+    # uncertainty and closed loop
+    "UncertainModel": "sdctrl.uncertainty",
+    "rms": "sdctrl.closedloop",
+    "robust_stability": "sdctrl.robust",
+    "RobustResult": "sdctrl.robust",
+    "worst_case_gain": "sdctrl.robust",
+    # closing the loop with measured data
+    "diagnose": "sdctrl.diagnose",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'sdctrl' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

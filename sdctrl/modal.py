@@ -1,0 +1,302 @@
+"""Truncated normal-mode models (thesis section 2.1, eq. 2.15) and their state-space form.
+
+``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u`` with mass-normalised
+modes: ``Omega`` (rad/s)^2, ``Gamma`` rad/s (full when damping is non-proportional),
+``cphi`` (ns, n) modal observability, ``phib`` (n, na) modal controllability and
+``E`` (ns, na) the static correction of truncated high-frequency modes (2.17).
+All modal quantities describe the displacement/force system.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sdctrl._validate import (
+    QUANTITY_POWER,
+    as_array,
+    check_freq,
+    check_labels,
+    check_quantity,
+    check_square,
+    readonly,
+    signal_name,
+)
+
+__all__ = ["NormalModeModel", "frf", "to_statespace", "poles"]
+
+
+@dataclass(frozen=True, eq=False)
+class NormalModeModel:
+    """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u``.
+
+    Parameters
+    ----------
+    Omega : array_like, shape (n, n)
+        Modal stiffness in (rad/s)^2, ``diag(omega_j^2)`` for normal modes
+        (symmetric; a full matrix is accepted after modifications).
+    Gamma : array_like, shape (n, n)
+        Modal damping in rad/s, symmetric; ``2 zeta_j omega_j`` on the diagonal for
+        proportional damping, full for non-proportional damping.
+    cphi : array_like, shape (ns, n)
+        Modal observability (displacement sensors).
+    phib : array_like, shape (n, na)
+        Modal controllability.
+    E : array_like, shape (ns, na), optional
+        Static (residual flexibility) term of the displacement response.
+    sensors, actuators : sequence of str, optional
+        Labels of outputs and inputs (StateSpace signal names follow them).
+    shapes : array_like, shape (N, n), optional
+        Mode shapes on physical DOFs (FE-derived and hybrid models).
+    dofs : sequence of str, optional
+        Labels of the N physical DOFs of ``shapes``.
+    omega_c : float, optional
+        Cut-off (rad/s) of the critically damped correction mode used to realise
+        ``E`` for velocity/acceleration outputs; default ten times the highest
+        modal frequency.
+    """
+
+    Omega: np.ndarray
+    Gamma: np.ndarray
+    cphi: np.ndarray
+    phib: np.ndarray
+    E: np.ndarray | None = None
+    sensors: tuple[str, ...] | None = None
+    actuators: tuple[str, ...] | None = None
+    shapes: np.ndarray | None = None
+    dofs: tuple[str, ...] | None = None
+    omega_c: float | None = None
+    info: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self):
+        Omega = check_square(self.Omega, "Omega")
+        n = Omega.shape[0]
+        Gamma = check_square(self.Gamma, "Gamma", n)
+        cphi = as_array(self.cphi, "cphi", ndim=2)
+        phib = as_array(self.phib, "phib", ndim=2)
+        if cphi.shape[1] != n:
+            raise ValueError(f"cphi must have shape (ns, n={n}), got {cphi.shape}")
+        if phib.shape[0] != n:
+            raise ValueError(f"phib must have shape (n={n}, na), got {phib.shape}")
+        ns, na = cphi.shape[0], phib.shape[1]
+        for name, X in (("Omega", Omega), ("Gamma", Gamma)):
+            scale = max(np.abs(X).max(), 1e-300)
+            if np.abs(X - X.T).max() > 1e-8 * scale:
+                raise ValueError(f"{name} must be symmetric")
+        E = None
+        if self.E is not None:
+            E = as_array(self.E, "E", shape=(ns, na))
+        shapes = None
+        if self.shapes is not None:
+            shapes = as_array(self.shapes, "shapes", ndim=2)
+            if shapes.shape[1] != n:
+                raise ValueError(f"shapes must have shape (N, n={n}), got {shapes.shape}")
+        dofs = None
+        if self.dofs is not None:
+            if shapes is None:
+                raise ValueError("dofs given without shapes")
+            dofs = check_labels(self.dofs, shapes.shape[0], "dofs", "q")
+        omega_c = self.omega_c
+        if omega_c is not None:
+            omega_c = float(omega_c)
+            if not np.isfinite(omega_c) or omega_c <= 0:
+                raise ValueError(f"omega_c must be a positive cut-off in rad/s, got {omega_c}")
+        sets = object.__setattr__
+        sets(self, "Omega", readonly(Omega))
+        sets(self, "Gamma", readonly(Gamma))
+        sets(self, "cphi", readonly(cphi))
+        sets(self, "phib", readonly(phib))
+        sets(self, "E", readonly(E))
+        sets(self, "shapes", readonly(shapes))
+        sets(self, "dofs", dofs)
+        sets(self, "omega_c", omega_c)
+        sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
+        sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
+        sets(self, "info", dict(self.info))
+
+    # --- sizes and modal data -----------------------------------------------------
+    @property
+    def n(self) -> int:
+        """Number of modes."""
+        return self.Omega.shape[0]
+
+    @property
+    def ns(self) -> int:
+        """Number of sensors (outputs)."""
+        return self.cphi.shape[0]
+
+    @property
+    def na(self) -> int:
+        """Number of actuators (inputs)."""
+        return self.phib.shape[1]
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """Undamped natural frequencies ``sqrt(diag(Omega)) / 2 pi`` in Hz."""
+        return np.sqrt(np.clip(np.diag(self.Omega), 0, None)) / (2 * np.pi)
+
+    @property
+    def expanded(self) -> np.ndarray | None:
+        """Alias of :attr:`shapes` (expanded mode shapes of hybrid models)."""
+        return self.shapes
+
+    @property
+    def poles(self) -> np.ndarray:
+        """Complex poles (rad/s) of the second-order system, Im >= 0, sorted by modulus."""
+        return poles(self)
+
+    def replace(self, **changes) -> NormalModeModel:
+        """Copy with some fields changed (validated again)."""
+        kw = {k: getattr(self, k) for k in ("Omega", "Gamma", "cphi", "phib", "E", "sensors",
+                                            "actuators", "shapes", "dofs", "omega_c", "info")}
+        kw.update(changes)
+        return NormalModeModel(**kw)
+
+    # --- doors into the module functions ------------------------------------------
+    def frf(self, freq, quantity: str = "displacement"):
+        """FRF of the model, eq. (2.15), for ``quantity``; see :func:`sdctrl.modal.frf`."""
+        return frf(self, freq, quantity)
+
+    def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
+        """python-control StateSpace; see :func:`sdctrl.modal.to_statespace`."""
+        return to_statespace(self, quantity, omega_c)
+
+
+def poles(model: NormalModeModel) -> np.ndarray:
+    """Poles of ``s^2 I + s Gamma + Omega`` (rad/s) with Im >= 0, sorted by modulus.
+
+    Real (overdamped) poles are listed as well; for each underdamped mode only the
+    upper half-plane pole is kept.
+    """
+    n = model.n
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
+    lam = np.linalg.eigvals(A)
+    scale = max(np.abs(lam).max(), 1.0)
+    lam = lam[lam.imag >= -1e-12 * scale]
+    return lam[np.argsort(np.abs(lam))]
+
+
+def frf(model: NormalModeModel, freq, quantity: str = "displacement"):
+    """FRF of a normal-mode model, eq. (2.15), vectorised over frequency.
+
+    ``H_d(s) = cphi (s^2 I + s Gamma + Omega)^-1 phib + E`` and
+    ``H_q = (j w)^k H_d`` with ``k = 0, 1, 2`` for displacement, velocity,
+    acceleration.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+    freq : array_like
+        Frequencies in Hz.
+    quantity : {"displacement", "velocity", "acceleration"}
+
+    Returns
+    -------
+    FRF
+    """
+    from sdctrl.frf import FRF
+
+    f = check_freq(freq, "freq")
+    q = check_quantity(quantity, "quantity")
+    H = _frf_array(model, 2 * np.pi * f)
+    H = H * ((1j * 2 * np.pi * f) ** QUANTITY_POWER[q])[:, None, None]
+    return FRF(f, H, quantity=q, sensors=model.sensors, actuators=model.actuators)
+
+
+def _frf_array(model: NormalModeModel, omega: np.ndarray) -> np.ndarray:
+    """Displacement FRF array (nw, ns, na) at ``omega`` rad/s."""
+    n = model.n
+    s = 1j * omega
+    if np.count_nonzero(model.Gamma - np.diag(np.diag(model.Gamma))) == 0 and \
+            np.count_nonzero(model.Omega - np.diag(np.diag(model.Omega))) == 0:
+        d = s[:, None] ** 2 + s[:, None] * np.diag(model.Gamma) + np.diag(model.Omega)
+        H = np.einsum("in,wn,nj->wij", model.cphi, 1.0 / d, model.phib, optimize=True)
+    else:
+        Z = s[:, None, None] ** 2 * np.eye(n) + s[:, None, None] * model.Gamma + model.Omega
+        X = np.linalg.solve(Z, np.broadcast_to(model.phib.astype(complex),
+                                               (s.size,) + model.phib.shape))
+        H = model.cphi @ X
+    if model.E is not None:
+        H = H + model.E
+    return H
+
+
+def default_omega_c(model: NormalModeModel) -> float:
+    """Default correction-mode cut-off: ten times the highest modal frequency (rad/s)."""
+    if model.omega_c is not None:
+        return model.omega_c
+    wmax = np.sqrt(max(np.abs(np.diag(model.Omega)).max(), 1e-12)) if model.n else 1.0
+    return 10.0 * wmax
+
+
+def to_statespace(model: NormalModeModel, quantity: str = "displacement",
+                  omega_c: float | None = None):
+    """Real state-space realisation with named signals, states ``[p; p']``.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+    quantity : {"displacement", "velocity", "acceleration"}
+        Output quantity.
+    omega_c : float, optional
+        Cut-off (rad/s) of the critically damped correction mode realising ``E``
+        for velocity/acceleration outputs (2.19)-(2.20); default
+        :func:`default_omega_c`.  Displacement realises ``E`` exactly as a feedthrough.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs named after ``model.actuators``, outputs after ``model.sensors``
+        (``.`` replaced by ``_``).
+
+    Notes
+    -----
+    For velocity/acceleration a term ``E`` cannot be a proper feedthrough.  Each
+    actuator gets a critically damped correction mode ``w_c^2/(s + w_c)^2`` (2.20):
+    ``E (j w)^k w_c^2/(j w + w_c)^2`` equals the E term up to a relative error of
+    about ``2 w / w_c`` in the band.
+    """
+    import control
+
+    q = check_quantity(quantity, "quantity")
+    k = QUANTITY_POWER[q]
+    n, ns, na = model.n, model.ns, model.na
+    Z, I_ = np.zeros((n, n)), np.eye(n)
+    A = np.block([[Z, I_], [-model.Omega, -model.Gamma]])
+    B = np.vstack([np.zeros((n, na)), model.phib])
+    if k == 0:
+        C = np.hstack([model.cphi, np.zeros((ns, n))])
+        D = np.zeros((ns, na))
+    elif k == 1:
+        C = np.hstack([np.zeros((ns, n)), model.cphi])
+        D = np.zeros((ns, na))
+    else:
+        C = np.hstack([-model.cphi @ model.Omega, -model.cphi @ model.Gamma])
+        D = model.cphi @ model.phib
+    states = [f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)]
+    if model.E is not None:
+        if k == 0:
+            D = D + model.E
+        else:
+            wc = float(omega_c) if omega_c is not None else default_omega_c(model)
+            # one critically damped correction state pair per actuator:
+            # z'' + 2 wc z' + wc^2 z = wc^2 u  ->  z = wc^2/(s+wc)^2 u
+            Zc, Ic = np.zeros((na, na)), np.eye(na)
+            Ac = np.block([[Zc, Ic], [-wc**2 * Ic, -2 * wc * Ic]])
+            Bc = np.vstack([Zc, wc**2 * Ic])
+            if k == 1:
+                Cc = np.hstack([np.zeros((ns, na)), model.E])
+                Dc = np.zeros((ns, na))
+            else:
+                Cc = np.hstack([-wc**2 * model.E, -2 * wc * model.E])
+                Dc = wc**2 * model.E
+            A = np.block([[A, np.zeros((2 * n, 2 * na))], [np.zeros((2 * na, 2 * n)), Ac]])
+            B = np.vstack([B, Bc])
+            C = np.hstack([C, Cc])
+            D = D + Dc
+            states += [f"zc{j}" for j in range(na)] + [f"dzc{j}" for j in range(na)]
+    return control.ss(A, B, C, D,
+                      inputs=[signal_name(a) for a in model.actuators],
+                      outputs=[signal_name(s) for s in model.sensors],
+                      states=states)
