@@ -45,14 +45,19 @@ _EXPORTS = {
     "robust_stability": "sdctrl.robust",
     "RobustResult": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",
-    # closing the loop with measured data
-    "diagnose": "sdctrl.diagnose",
 }
 
 __all__ = sorted(_EXPORTS)
 
 
+# submodules reachable as attributes (``sd.plot.bode``) without importing them up front
+_SUBMODULES = ("frf", "io", "modal", "identify", "fe", "testbed", "hybrid", "uncertainty",
+               "robust", "closedloop", "testing", "plot", "report", "update")
+
+
 def __getattr__(name: str):
+    if name in _SUBMODULES:
+        return importlib.import_module(f"sdctrl.{name}")
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'sdctrl' has no attribute {name!r}")
