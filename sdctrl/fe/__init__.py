@@ -1,0 +1,18 @@
+"""Finite elements: :class:`FEModel` (modes, static correction 2.21, principal static
+modes 4.24, normal-mode models 2.15/2.22) and a small element library with a
+vectorised sparse assembler (bar, 3-D Euler-Bernoulli beam, lumped mass/inertia,
+spring, dashpot).
+"""
+
+from sdctrl.fe.elements import (
+    DIRECTIONS,
+    assemble,
+    assemble_coo,
+    bar_matrices,
+    beam_axes,
+    beam_matrices,
+)
+from sdctrl.fe.model import DENSE_MAX, RIGID_RTOL, FEModel, principal_static_modes
+
+__all__ = ["FEModel", "principal_static_modes", "assemble", "assemble_coo", "bar_matrices",
+           "beam_matrices", "beam_axes", "DIRECTIONS", "DENSE_MAX", "RIGID_RTOL"]
