@@ -399,6 +399,9 @@ class FEModel:
             K = self.K.toarray() if self.sparse else np.asarray(self.K)
             M = self.M.toarray() if self.sparse else np.asarray(self.M)
             lam, phi = sla.eigh(K, M, subset_by_index=[0, n - 1])
+            # Rayleigh quotients: eigenvalues accurate to second order in the shapes
+            # (eigh's small eigenvalues carry an error ~ eps * lambda_max)
+            lam = np.einsum("ij,ij->j", phi, K @ phi) / np.einsum("ij,ij->j", phi, M @ phi)
         else:
             if n >= N - 1:
                 raise ValueError(f"n must be < N - 1 = {N - 1} for the sparse eigensolver, "
