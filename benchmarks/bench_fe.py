@@ -45,7 +45,7 @@ def main(levels: int = 261, n_modes: int = 20) -> None:
     t1 = time.perf_counter()
     fe = assemble(nodes, els, MAT, SEC, bc=bc)
     t2 = time.perf_counter()
-    f, phi = fe.modes(n_modes, method="sparse")
+    f, _phi = fe.modes(n_modes, method="sparse")
     t3 = time.perf_counter()
     FEModel(fe.M, fe.K)
     t_val = time.perf_counter() - t3

@@ -18,7 +18,7 @@ import numpy as np
 
 from sdctrl._validate import check_quantity
 
-__all__ = ["testbed", "testbed_frf", "TESTBED_BAND", "SHAKERS", "SENSORS"]
+__all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "testbed", "testbed_frf"]
 
 #: default test band (Hz)
 TESTBED_BAND = (8.0, 60.0)
@@ -136,7 +136,7 @@ SHAKERS, SENSORS = _io_sets()
 
 @lru_cache(maxsize=1)
 def _cached():
-    fe, truss, plates = _build()
+    fe, _truss, _plates = _build()
     return fe
 
 

@@ -81,7 +81,7 @@ def test_element_rigid_body_motion_is_stress_free_and_mass_exact():
         u = np.concatenate([np.zeros(3), th, np.cross(th, xb[e] - xa[e]), th])
         assert np.abs(K[e] @ u).max() < 1e-6 * np.abs(K[e]).max() * np.abs(u).max()
         assert np.allclose(K[e], K[e].T) and np.allclose(M[e], M[e].T)
-    Kb, Mb = bar_matrices(xa, xb, E, 1e-4, RHO)
+    Kb, _Mb = bar_matrices(xa, xb, E, 1e-4, RHO)
     u = np.tile(rng.standard_normal(3), 2)
     assert np.abs(Kb @ u).max() < 1e-6 * np.abs(Kb).max()
 
@@ -93,7 +93,7 @@ def test_sparse_and_dense_paths_agree():
     assert fe_s.sparse and not fe_d.sparse
     f1, p1 = fe_s.modes(12, method="sparse")
     f2, p2 = fe_d.modes(12, method="dense")
-    f3, p3 = fe_s.modes(12, method="dense")
+    f3, _p3 = fe_s.modes(12, method="dense")
     assert np.allclose(f1, f2, rtol=1e-10) and np.allclose(f2, f3, rtol=1e-12)
     M = fe_d.M
     assert np.allclose(p1.T @ (M @ p1), np.eye(12), atol=1e-10)
@@ -156,7 +156,7 @@ def test_static_correction_completes_the_static_response_exactly():
 
 def test_static_correction_of_free_structure_uses_inertia_relief():
     fe = _free_beam(12)
-    f, phi = fe.modes(9)
+    _f, phi = fe.modes(9)
     b = fe.point(["N12.y", "N6.z"])
     K, M = fe.K.toarray(), fe.M.toarray()
     lam, V = np.linalg.eigh(np.linalg.solve(np.linalg.cholesky(M), np.linalg.solve(
@@ -176,7 +176,7 @@ def test_static_correction_of_free_structure_uses_inertia_relief():
 
 def test_principal_static_modes_are_mass_orthonormal_and_drop_dependent_columns():
     fe = _cantilever(15)
-    f, phi = fe.modes(4)
+    _f, phi = fe.modes(4)
     b = fe.point(["N15.y", "N10.y"])
     Ps = fe.static_correction(np.hstack([b, b @ [[1.0], [2.0]]]), phi)   # 3rd dependent
     V = fe.principal_static_modes(Ps)
@@ -216,7 +216,7 @@ def test_projected_damping_reproduces_the_full_model():
     els = els + [("dashpot", "N8.y", None, 3.0), ("dashpot", "N4.z", "N8.z", 2.0)]
     fe = assemble(nodes, els, AL, SEC, bc=["N0"], rayleigh=(0.5, 1e-6))
     nm = fe.normal_mode_model(["N8.y", "N4.z"], ["N8.y", "N5.z"], fe.N)
-    f, phi = fe.modes(fe.N)
+    _f, phi = fe.modes(fe.N)
     assert np.allclose(nm.Gamma, phi.T @ fe.C.toarray() @ phi, atol=1e-9)
     off = nm.Gamma - np.diag(np.diag(nm.Gamma))
     assert np.abs(off).max() > 1e-3 * np.abs(np.diag(nm.Gamma)).max()   # non-proportional
@@ -302,7 +302,7 @@ def test_inputs_not_modified_and_model_immutable():
         fe.K = K
     with pytest.raises(ValueError):
         fe.M[0, 0] = 2.0                    # read-only storage
-    f, phi = fe.modes(2)
+    _f, phi = fe.modes(2)
     phi[:] = 0
     assert np.abs(fe.modes(2)[1]).max() > 0  # cache not exposed
 
@@ -315,7 +315,7 @@ def test_method_argument_validation():
         fe.modes(2.5)
     with pytest.raises(ValueError, match="method"):
         fe.modes(2, method="lanczos")
-    f, phi = fe.modes(3)
+    _f, phi = fe.modes(3)
     with pytest.raises(ValueError, match="mass-normalised"):
         fe.static_correction("N5.y", 2 * phi)
     with pytest.raises(ValueError, match=r"b must have shape \(N=30, k\)"):

@@ -14,5 +14,15 @@ from sdctrl.fe.elements import (
 )
 from sdctrl.fe.model import DENSE_MAX, RIGID_RTOL, FEModel, principal_static_modes
 
-__all__ = ["FEModel", "principal_static_modes", "assemble", "assemble_coo", "bar_matrices",
-           "beam_matrices", "beam_axes", "DIRECTIONS", "DENSE_MAX", "RIGID_RTOL"]
+__all__ = [
+    "DENSE_MAX",
+    "DIRECTIONS",
+    "RIGID_RTOL",
+    "FEModel",
+    "assemble",
+    "assemble_coo",
+    "bar_matrices",
+    "beam_axes",
+    "beam_matrices",
+    "principal_static_modes",
+]

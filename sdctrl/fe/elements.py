@@ -25,8 +25,14 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["bar_matrices", "beam_matrices", "beam_axes", "assemble_coo", "assemble",
-           "DIRECTIONS"]
+__all__ = [
+    "DIRECTIONS",
+    "assemble",
+    "assemble_coo",
+    "bar_matrices",
+    "beam_axes",
+    "beam_matrices",
+]
 
 #: DOF direction suffixes, in the order used within a node
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -425,7 +431,7 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
     ni, di = np.nonzero(active)
     dofs = [f"{names[i]}.{DIRECTIONS[d]}" for i, d in zip(ni, di)]
 
-    Ks, Ms, Cs = [], [], []
+    Ks, Ms, _Cs = [], [], []
     for (kind, mat, sec, ori), conn in groups.items():
         conn = np.asarray(conn)
         mp, sc = materials[mat], sections[sec]

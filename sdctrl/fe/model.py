@@ -22,7 +22,7 @@ import scipy.sparse.linalg as spla
 
 from sdctrl._validate import QUANTITY_POWER, as_array, check_freq, check_labels, check_quantity
 
-__all__ = ["FEModel", "principal_static_modes", "RIGID_RTOL", "DENSE_MAX"]
+__all__ = ["DENSE_MAX", "RIGID_RTOL", "FEModel", "principal_static_modes"]
 
 #: eigenvalues below ``RIGID_RTOL * max(diag K / diag M)`` are rigid-body modes
 RIGID_RTOL = 1e-10
@@ -81,7 +81,7 @@ def _check_pd(M, name: str = "M") -> None:
     # positive definite iff every pivot is positive.
     try:
         lu = spla.splu(M.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options=dict(SymmetricMode=True))
+                       options={"SymmetricMode": True})
     except RuntimeError:
         raise ValueError(msg + " (singular)") from None
     if np.array_equal(lu.perm_r, lu.perm_c):
@@ -174,7 +174,7 @@ class FEModel:
     array([1.      , 1.732051])
     """
 
-    __slots__ = ("M", "K", "C", "dofs", "nodes", "elements", "_cache", "_index")
+    __slots__ = ("C", "K", "M", "_cache", "_index", "dofs", "elements", "nodes")
 
     def __init__(self, M, K, C=None, dofs: Sequence[str] | None = None,
                  nodes: Mapping | None = None, elements: Sequence | None = None):
@@ -507,10 +507,10 @@ class FEModel:
             else:
                 try:
                     fac = sla.cho_factor(np.asarray(self.K))
-                    solve = lambda rhs: sla.cho_solve(fac, rhs)  # noqa: E731
+                    solve = lambda rhs: sla.cho_solve(fac, rhs)
                 except np.linalg.LinAlgError:
                     fac = sla.lu_factor(np.asarray(self.K))
-                    solve = lambda rhs: sla.lu_solve(fac, rhs)  # noqa: E731
+                    solve = lambda rhs: sla.lu_solve(fac, rhs)
         else:
             # inertia relief: [[K, M R], [R^T M, 0]] [x; l] = [b; 0] gives
             # K x = (I - M R R^T) b and R^T M x = 0, i.e. x = sum_flexible phi phi^T b / w^2
@@ -522,7 +522,7 @@ class FEModel:
             else:
                 A = np.block([[np.asarray(self.K), MR], [MR.T, np.zeros((r, r))]])
                 fac = sla.lu_factor(A)
-                full = lambda rhs: sla.lu_solve(fac, rhs)  # noqa: E731
+                full = lambda rhs: sla.lu_solve(fac, rhs)
 
             def solve(rhs):
                 rhs = np.vstack([rhs, np.zeros((r, rhs.shape[1]))])
