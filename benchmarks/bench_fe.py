@@ -70,6 +70,20 @@ def main(levels: int = 261, n_modes: int = 20) -> None:
     print(f"ratio: (assembly + sparse solve of {fe.N} DOFs) / (dense solve of {small.N} "
           f"DOFs) = {(t3 - t1) / (t5 - t4):.2f}")
 
+    import sdctrl as sd
+    from sdctrl import testbed as tb
+
+    t7 = time.perf_counter()
+    fe_tb = sd.testbed()
+    t8 = time.perf_counter()
+    sd.testbed_frf(n=1000)
+    t9 = time.perf_counter()
+    sd.testbed_frf(n=1000, noise=0.01, seed=0)
+    t10 = time.perf_counter()
+    print(f"testbed: {fe_tb.N} DOFs built in {t8 - t7:.3f} s; testbed_frf 1000 lines x "
+          f"{len(tb.SENSORS)} x {len(tb.SHAKERS)}: first call {t9 - t8:.3f} s (modes and "
+          f"static modes, cached), next {t10 - t9:.3f} s")
+
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

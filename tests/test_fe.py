@@ -339,3 +339,21 @@ def test_top_level_name_and_statespace_labels():
     # collocated driving point: passive, Im H <= 0 for displacement/force
     H = nm.frf(np.linspace(1, 500, 200)).H[:, 0, 0]
     assert np.all(H.imag <= 1e-15 * np.abs(H).max())
+
+
+def test_free_structure_modal_model_with_static_modes():
+    nodes, els = _line(12)
+    fe = assemble(nodes, els, AL, SEC, rayleigh=(0.0, 2e-6))
+    f, _ = fe.modes(10)
+    b, c = ["N12.y", "N6.z"], ["N12.y", "N6.z", "N0.y"]
+    band = np.linspace(2.0, 0.3 * f[9], 30)
+    ref = fe.frf(band, b, c, "acceleration")
+    err = {}
+    for static in (False, True):
+        nm = fe.normal_mode_model(b, c, 9, static=static, static_damping="projected")
+        assert np.allclose(np.diag(nm.Omega)[:6], 0.0, atol=1e-6)     # rigid bodies kept
+        err[static] = np.abs(nm.frf(band, "acceleration").H - ref.H).max() / np.abs(ref.H).max()
+    assert err[True] < 0.1 * err[False]
+    # correction modes are mass-orthogonal to the rigid-body modes (inertia relief)
+    R = fe.rigid_modes()
+    assert np.abs(R.T @ (fe.M @ nm.shapes[:, 9:])).max() < 1e-8

@@ -25,7 +25,7 @@ from sdctrl._validate import QUANTITY_POWER, as_array, check_freq, check_labels,
 __all__ = ["DENSE_MAX", "RIGID_RTOL", "FEModel", "principal_static_modes"]
 
 #: eigenvalues below ``RIGID_RTOL * max(diag K / diag M)`` are rigid-body modes
-RIGID_RTOL = 1e-10
+RIGID_RTOL = 1e-12
 #: ``modes(method="auto")`` uses the dense ``eigh`` up to this many DOFs
 DENSE_MAX = 1200
 _SYM_RTOL = 1e-8
