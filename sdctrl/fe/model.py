@@ -685,6 +685,10 @@ class FEModel:
         if static in (True, "modes"):
             Ps = self.static_correction(B, phi)
             Ps = Ps - phi @ (phi.T @ np.asarray(self.M @ Ps))    # exact M-orthogonality
+            X = self.static_response(B)
+            ref = np.einsum("ij,ij->", X, np.asarray(self.M @ X))
+            if np.einsum("ij,ij->", Ps, np.asarray(self.M @ Ps)) <= 1e-20 * ref:
+                Ps = Ps[:, :0]          # nothing left to correct (e.g. all modes retained)
             V = principal_static_modes(Ps, self.M)
             if V.shape[1]:
                 Kc = V.T @ np.asarray(self.K @ V)
