@@ -1,0 +1,468 @@
+"""Structured parametric uncertainty of normal mode models (thesis section 5.2).
+
+The uncertain model (5.5) is ``p'' + (Gamma + dGamma) p' + (Omega + dOmega) p = (phib + db) u``,
+``y = (cphi + dc) p + E u``.  Every uncertain entry is one real parameter; a symmetric off-diagonal
+pair of ``Gamma`` or ``Omega`` is one repeated real scalar (a rank-two channel).  The perturbation
+enters affinely, so the linear fractional transformation built by :meth:`UncertainModel.lft` is exact.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["UncertainModel", "uncertain", "psd_gamma_bound", "modal_density_bound",
+           "default_bounds", "MultiTestResult", "multi_test_statistics"]
+
+
+def _bound(arr, shape, name, symmetric):
+    if arr is None:
+        return np.zeros(shape)
+    a = np.array(arr, dtype=float)
+    if a.shape != shape:
+        raise ValueError(f"{name} must have shape {shape} (the shape of the perturbed parameter), "
+                         f"got {a.shape}")
+    if not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise ValueError(f"{name} must hold finite non-negative bounds")
+    if symmetric:
+        a = np.maximum(a, a.T)  # one parameter per symmetric pair
+    return a
+
+
+@dataclass(frozen=True)
+class UncertainModel:
+    """Normal mode model with bounded real parametric uncertainty, eq. (5.5).
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Nominal model.
+    dGamma, dOmega : ndarray (n, n)
+        Bounds on the entries of ``Gamma`` and ``Omega`` (symmetric pairs are one parameter).
+    db : ndarray (n, na)
+        Bounds on the entries of ``phib``.
+    dc : ndarray (ns, n)
+        Bounds on the entries of ``cphi``.
+    """
+
+    model: object
+    dGamma: np.ndarray
+    dOmega: np.ndarray
+    db: np.ndarray
+    dc: np.ndarray
+    params: list = field(default_factory=list)
+
+    # ------------------------------------------------------------------ structure
+    @property
+    def blocks(self) -> list:
+        """``(name, repetition)`` of each real scalar uncertainty, in channel order."""
+        return [(p[0], p[2]) for p in self.params]
+
+    @property
+    def nominal(self):
+        """Nominal model as a python-control StateSpace (displacement outputs)."""
+        return self.perturbed(np.zeros(len(self.params)))
+
+    def _matrices(self):
+        m = self.model
+        n, ns, na = m.n, m.ns, m.na
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-m.Omega, -m.Gamma]])
+        B = np.vstack([np.zeros((n, na)), m.phib])
+        C = np.hstack([m.cphi, np.zeros((ns, n))])
+        D = np.zeros((ns, na)) if m.E is None else np.array(m.E, float)
+        return A, B, C, D
+
+    def _lft_matrices(self):
+        """(A, Bw, Bu, Cz, Dzu, Cy, Dyw, D): w = Delta z closes the loop (exact, affine)."""
+        m = self.model
+        n, ns, na = m.n, m.ns, m.na
+        A, B, C, D = self._matrices()
+        r = sum(p[2] for p in self.params)
+        Bw, Cz = np.zeros((2 * n, r)), np.zeros((r, 2 * n))
+        Dzu, Dyw = np.zeros((r, na)), np.zeros((ns, r))
+        k = 0
+        for name, (kind, i, j), rep, beta in self.params:
+            if kind in ("Omega", "Gamma"):
+                off = 0 if kind == "Omega" else n
+                if rep == 1:
+                    Bw[n + i, k] = -beta
+                    Cz[k, off + j] = 1.0
+                else:  # beta*d*(e_i e_j^T + e_j e_i^T) = [e_i e_j] d I [e_j e_i]^T
+                    Bw[n + i, k] = -beta
+                    Bw[n + j, k + 1] = -beta
+                    Cz[k, off + j] = 1.0
+                    Cz[k + 1, off + i] = 1.0
+            elif kind == "b":
+                Bw[n + i, k] = beta
+                Dzu[k, j] = 1.0
+            else:  # "c"
+                Dyw[i, k] = beta
+                Cz[k, j] = 1.0
+            k += rep
+        return A, Bw, B, Cz, Dzu, C, Dyw, D
+
+    def lft(self):
+        """Linear fractional transformation ``(P, blocks)`` of the uncertain model.
+
+        Returns
+        -------
+        P : control.StateSpace
+            Inputs ``[delta channels w; actuators]``, outputs ``[delta channels z; sensors]``;
+            closing ``w = diag(delta_i I_ri) z`` with ``|delta_i| <= 1`` gives a model whose
+            parameters lie within the bounds (5.5).
+        blocks : list of (str, int)
+            Name and repetition of each real scalar block, in channel order.
+        """
+        import control
+
+        from ._validate import signal_name
+        A, Bw, B, Cz, Dzu, C, Dyw, D = self._lft_matrices()
+        r = Bw.shape[1]
+        m = self.model
+        chans = []
+        for name, _, rep, _ in self.params:
+            chans += [name] if rep == 1 else [f"{name}_{q}" for q in range(rep)]
+        P = control.ss(A, np.hstack([Bw, B]), np.vstack([Cz, C]),
+                       np.block([[np.zeros((r, r)), Dzu], [Dyw, D]]),
+                       inputs=[f"{c}_w" for c in chans] + [signal_name(a) for a in m.actuators],
+                       outputs=[f"{c}_z" for c in chans] + [signal_name(s) for s in m.sensors],
+                       states=[f"p{j}" for j in range(m.n)] + [f"dp{j}" for j in range(m.n)])
+        return P, self.blocks
+
+    def perturbed_matrices(self, deltas):
+        """Matrices ``(Omega, Gamma, phib, cphi)`` for normalised parameters ``deltas``.
+
+        Parameters
+        ----------
+        deltas : array_like (nblocks,)
+            Normalised parameter values (``|delta_i| <= 1`` spans the bounds).
+
+        Returns
+        -------
+        tuple of ndarray
+        """
+        d = np.asarray(deltas, dtype=float).ravel()
+        if d.shape != (len(self.params),):
+            raise ValueError(f"deltas must have {len(self.params)} entries (one per block), "
+                             f"got shape {np.shape(deltas)}")
+        m = self.model
+        mats = {"Omega": np.array(m.Omega, float), "Gamma": np.array(m.Gamma, float),
+                "b": np.array(m.phib, float), "c": np.array(m.cphi, float)}
+        for (name, (kind, i, j), rep, beta), dk in zip(self.params, d):
+            mats[kind][i, j] += beta * dk
+            if rep == 2:
+                mats[kind][j, i] += beta * dk
+        return mats["Omega"], mats["Gamma"], mats["b"], mats["c"]
+
+    def perturbed_model(self, deltas):
+        """Perturbed :class:`NormalModeModel` for normalised ``deltas``.
+
+        Parameters
+        ----------
+        deltas : array_like (nblocks,)
+            Normalised parameter values.
+
+        Returns
+        -------
+        NormalModeModel
+        """
+        Om, Ga, b, c = self.perturbed_matrices(deltas)
+        return self.model.replace(Omega=Om, Gamma=Ga, phib=b, cphi=c)
+
+    def perturbed(self, deltas):
+        """StateSpace of the model perturbed by normalised ``deltas`` (built directly, not by LFT).
+
+        Parameters
+        ----------
+        deltas : array_like (nblocks,)
+            Normalised parameter values (``|delta_i| <= 1`` spans the bounds).
+
+        Returns
+        -------
+        control.StateSpace
+        """
+        import control
+
+        from ._validate import signal_name
+        Om, Ga, b, c = self.perturbed_matrices(deltas)
+        m = self.model
+        n, ns = m.n, m.ns
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Om, -Ga]])
+        B = np.vstack([np.zeros((n, m.na)), b])
+        C = np.hstack([c, np.zeros((ns, n))])
+        D = np.zeros((ns, m.na)) if m.E is None else np.array(m.E, float)
+        return control.ss(A, B, C, D, inputs=[signal_name(a) for a in m.actuators],
+                          outputs=[signal_name(s) for s in m.sensors],
+                          states=[f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)])
+
+    def sample_deltas(self, n: int, seed=None) -> np.ndarray:
+        """Uniform random normalised parameters, shape ``(n, nblocks)``.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        seed : int or Generator, optional
+            Random seed (deterministic results).
+
+        Returns
+        -------
+        ndarray
+        """
+        rng = np.random.default_rng(seed)
+        return rng.uniform(-1.0, 1.0, size=(int(n), len(self.params)))
+
+    def sample(self, n: int, seed=None) -> list:
+        """``n`` random perturbed StateSpace models (uniform in the normalised box).
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        seed : int or Generator, optional
+            Random seed.
+
+        Returns
+        -------
+        list of control.StateSpace
+        """
+        return [self.perturbed(d) for d in self.sample_deltas(n, seed)]
+
+    def frf_envelope(self, freq, n_samples: int = 200, seed=0, max_vertices: int = 256):
+        """Min/max magnitude and phase of the FRF over random samples and box vertices.
+
+        Parameters
+        ----------
+        freq : array_like
+            Frequencies (Hz).
+        n_samples : int
+            Number of random interior samples.
+        seed : int, optional
+            Random seed.
+        max_vertices : int
+            All ``2**nblocks`` vertices are used when not more than this, else that many random ones.
+
+        Returns
+        -------
+        dict
+            ``freq``, ``nominal`` (complex), ``mag_min``, ``mag_max``, ``phase_min``, ``phase_max``
+            (degrees, unwrapped around the nominal phase), each ``(nf, ns, na)``.
+        """
+        from ._validate import check_freq
+        from .frf import ss_frf
+        f = check_freq(freq, "freq")
+        w = 2 * np.pi * np.asarray(f, float)
+        nb = len(self.params)
+        rng = np.random.default_rng(seed)
+        if nb == 0:
+            verts = np.zeros((1, 0))
+        elif 2 ** nb <= max_vertices:
+            verts = np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
+        else:
+            verts = rng.choice([-1.0, 1.0], size=(max_vertices, nb))
+        ds = np.vstack([verts, rng.uniform(-1, 1, size=(int(n_samples), nb))])
+        nom = self.nominal
+        H0 = ss_frf(nom.A, nom.B, nom.C, nom.D, w)
+        mag_min = np.abs(H0).copy()
+        mag_max = mag_min.copy()
+        ph_min = np.zeros_like(mag_min)
+        ph_max = np.zeros_like(mag_min)
+        for d in ds:
+            s = self.perturbed(d)
+            H = ss_frf(s.A, s.B, s.C, s.D, w)
+            a = np.abs(H)
+            mag_min, mag_max = np.minimum(mag_min, a), np.maximum(mag_max, a)
+            dp = np.angle(H * np.conj(H0))
+            ph_min, ph_max = np.minimum(ph_min, dp), np.maximum(ph_max, dp)
+        p0 = np.unwrap(np.angle(H0), axis=0)
+        return {"freq": np.asarray(f, float), "nominal": H0, "mag_min": mag_min,
+                "mag_max": mag_max, "phase_min": np.degrees(p0 + ph_min),
+                "phase_max": np.degrees(p0 + ph_max)}
+
+
+def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainModel:
+    """Build the structured uncertain model (5.5) of a normal mode model.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Nominal model (``Omega``, ``Gamma``, ``phib``, ``cphi``, ``E``).
+    dGamma : array_like (n, n), optional
+        Bound of each entry of ``Gamma`` (0 = certain). A symmetric pair is one parameter.
+    dOmega : array_like (n, n), optional
+        Bound of each entry of ``Omega`` (0 = certain). A symmetric pair is one parameter.
+    db : array_like (n, na), optional
+        Bound of each entry of ``phib``.
+    dc : array_like (ns, n), optional
+        Bound of each entry of ``cphi``.
+
+    Returns
+    -------
+    UncertainModel
+    """
+    n, ns, na = model.n, model.ns, model.na
+    dG = _bound(dGamma, (n, n), "dGamma", True)
+    dO = _bound(dOmega, (n, n), "dOmega", True)
+    dB = _bound(db, (n, na), "db", False)
+    dC = _bound(dc, (ns, n), "dc", False)
+    params = []
+    for kind, a in (("Omega", dO), ("Gamma", dG)):
+        for i in range(n):
+            for j in range(i, n):
+                if a[i, j] > 0:
+                    params.append((f"delta_{kind}_{i}_{j}", (kind, i, j), 1 if i == j else 2,
+                                   float(a[i, j])))
+    for i, j in zip(*np.nonzero(dB)):
+        params.append((f"delta_b_{i}_{j}", ("b", int(i), int(j)), 1, float(dB[i, j])))
+    for i, j in zip(*np.nonzero(dC)):
+        params.append((f"delta_c_{i}_{j}", ("c", int(i), int(j)), 1, float(dC[i, j])))
+    return UncertainModel(model, dG, dO, dB, dC, params)
+
+
+def psd_gamma_bound(Gamma, fraction: float = 1.0) -> np.ndarray:
+    """Off-diagonal bounds keeping ``Gamma`` positive semi-definite (section 5.2.2).
+
+    For a 2x2 principal minor, ``Gamma_ij^2 <= Gamma_ii Gamma_jj``.
+
+    Parameters
+    ----------
+    Gamma : array_like (n, n)
+        Modal damping matrix.
+    fraction : float
+        Fraction of the positive definiteness bound to use.
+
+    Returns
+    -------
+    ndarray (n, n)
+        ``fraction * sqrt(g_ii g_jj)`` off the diagonal, 0 on it.
+    """
+    G = np.asarray(Gamma, float)
+    g = np.sqrt(np.clip(np.diag(G), 0, None))
+    out = fraction * np.outer(g, g)
+    np.fill_diagonal(out, 0.0)
+    return out
+
+
+def modal_density_bound(Omega, fraction: float = 1.0) -> np.ndarray:
+    """Modal-density bound ``|Omega_ii - Omega_jj|`` on stiffness couplings (section 5.2.2).
+
+    Parameters
+    ----------
+    Omega : array_like (n, n)
+        Modal stiffness matrix.
+    fraction : float
+        Fraction of the bound to use.
+
+    Returns
+    -------
+    ndarray (n, n)
+    """
+    d = np.diag(np.asarray(Omega, float))
+    out = fraction * np.abs(d[:, None] - d[None, :])
+    np.fill_diagonal(out, 0.0)
+    return out
+
+
+def default_bounds(model, gamma_fraction: float = 0.5, omega_fraction: float = 0.1) -> dict:
+    """Sensible default bounds from the physical constraints of section 5.2.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Nominal model.
+    gamma_fraction : float
+        Fraction of the positive definiteness bound on ``Gamma`` couplings.
+    omega_fraction : float
+        Fraction of the modal-density bound on ``Omega`` couplings.
+
+    Returns
+    -------
+    dict
+        ``{"dGamma": ..., "dOmega": ...}`` usable as ``uncertain(model, **bounds)``.
+    """
+    return {"dGamma": psd_gamma_bound(model.Gamma, gamma_fraction),
+            "dOmega": modal_density_bound(model.Omega, omega_fraction)}
+
+
+@dataclass(frozen=True)
+class MultiTestResult:
+    """Mean model and spread from several tests (section 5.2.3).
+
+    Attributes: ``mean`` (NormalModeModel), ``std`` dict of standard deviations of
+    ``Gamma``/``Omega``/``phib``/``cphi``, ``bounds`` (keyword arguments for :func:`uncertain`),
+    ``tables`` (``gamma_std_over_mean``, ``gamma_pct_pd_bound``, ``omega_std_over_mean``),
+    ``aligned`` the aligned models.
+    """
+
+    mean: object
+    std: dict
+    bounds: dict
+    tables: dict
+    aligned: list
+
+
+def _align(ref, m):
+    """Reorder and re-sign the modes of ``m`` to match ``ref`` by MAC of ``cphi`` columns."""
+    from scipy.optimize import linear_sum_assignment
+    a, b = np.asarray(ref.cphi), np.asarray(m.cphi)
+    num = np.abs(a.conj().T @ b) ** 2
+    den = np.outer(np.sum(np.abs(a) ** 2, 0), np.sum(np.abs(b) ** 2, 0))
+    mac = num / np.where(den > 0, den, 1.0)
+    _, perm = linear_sum_assignment(-mac)
+    sgn = np.sign(np.real(np.sum(a * b[:, perm], axis=0)))
+    sgn[sgn == 0] = 1.0
+    S = np.diag(sgn)
+    P = np.eye(len(perm))[:, perm]
+    T = P @ S
+    return m.replace(Omega=T.T @ m.Omega @ T, Gamma=T.T @ m.Gamma @ T,
+                     phib=T.T @ m.phib, cphi=m.cphi @ T), mac[np.arange(len(perm)), perm]
+
+
+def multi_test_statistics(models, reference: int = 0, k: float = 1.0) -> MultiTestResult:
+    """Statistics of several identified models of one structure (section 5.2.3).
+
+    Modes are aligned on ``models[reference]`` (order and sign by MAC of ``cphi``), then the mean
+    model and the sample standard deviation of each parameter are computed.
+
+    Parameters
+    ----------
+    models : sequence of NormalModeModel
+        At least two models with the same numbers of modes, sensors and actuators.
+    reference : int
+        Index of the model whose mode order and signs are used.
+    k : float
+        Bounds are ``k`` times the standard deviations.
+
+    Returns
+    -------
+    MultiTestResult
+    """
+    models = list(models)
+    if len(models) < 2:
+        raise ValueError("models must hold at least two NormalModeModels")
+    ref = models[reference]
+    aligned, macs = [], []
+    for m in models:
+        if (m.n, m.ns, m.na) != (ref.n, ref.ns, ref.na):
+            raise ValueError("models must share n, ns, na")
+        a, mac = _align(ref, m)
+        aligned.append(a)
+        macs.append(mac)
+    stack = {key: np.array([getattr(a, key) for a in aligned], float)
+             for key in ("Omega", "Gamma", "phib", "cphi")}
+    mean = {k_: v.mean(0) for k_, v in stack.items()}
+    std = {k_: v.std(0, ddof=1) for k_, v in stack.items()}
+    mean_model = ref.replace(Omega=0.5 * (mean["Omega"] + mean["Omega"].T),
+                             Gamma=0.5 * (mean["Gamma"] + mean["Gamma"].T),
+                             phib=mean["phib"], cphi=mean["cphi"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g_rel = std["Gamma"] / np.abs(mean["Gamma"])
+        o_rel = std["Omega"] / np.abs(mean["Omega"])
+        pd = np.sqrt(np.outer(np.abs(np.diag(mean["Gamma"])), np.abs(np.diag(mean["Gamma"]))))
+        g_pd = 100.0 * std["Gamma"] / pd
+    np.fill_diagonal(g_pd, np.nan)
+    bounds = {"dGamma": k * std["Gamma"], "dOmega": k * std["Omega"], "db": k * std["phib"],
+              "dc": k * std["cphi"]}
+    tables = {"gamma_std_over_mean": g_rel, "gamma_pct_pd_bound": g_pd,
+              "omega_std_over_mean": o_rel, "mac": np.array(macs)}
+    return MultiTestResult(mean_model, std, bounds, tables, aligned)

@@ -1,0 +1,155 @@
+"""Tests of sdctrl.uncertainty: exact LFT (5.5), physical bounds, multi-test statistics (5.2.3)."""
+import numpy as np
+import pytest
+
+from sdctrl.frf import ss_frf
+from sdctrl.modal import NormalModeModel
+from sdctrl.uncertainty import (default_bounds, modal_density_bound, multi_test_statistics,
+                                psd_gamma_bound, uncertain)
+
+
+def two_mode():
+    """Thesis two-mode example (5.6)."""
+    return NormalModeModel(Omega=np.diag([1.0, 1.21]), Gamma=np.diag([0.04, 0.022]),
+                           cphi=np.array([[1.0, 1], [2, -1], [-2, 0]]), phib=np.array([[1.0], [1]]))
+
+
+def three_mode():
+    rng = np.random.default_rng(3)
+    return NormalModeModel(Omega=np.diag([4.0, 9.0, 25.0]), Gamma=np.diag([0.08, 0.12, 0.2]),
+                           cphi=rng.normal(size=(2, 3)), phib=rng.normal(size=(3, 2)),
+                           E=0.01 * rng.normal(size=(2, 2)))
+
+
+def close_lft(P, blocks, deltas, w):
+    reps = [r for _, r in blocks]
+    r = sum(reps)
+    Dl = np.diag(np.repeat(deltas, reps))
+    H = ss_frf(P.A, P.B, P.C, P.D, w)
+    P11, P12, P21, P22 = H[:, :r, :r], H[:, :r, r:], H[:, r:, :r], H[:, r:, r:]
+    return P22 + P21 @ Dl @ np.linalg.solve(np.eye(r) - P11 @ Dl, P12)
+
+
+STRUCTURES = [
+    (two_mode, dict(dGamma=[[0.01, 0.02], [0, 0.005]])),
+    (two_mode, dict(dOmega=[[0.1, 0.05], [0.05, 0.0]], db=[[0.1], [0.0]])),
+    (two_mode, dict(dGamma=[[0.01, 0.02], [0, 0]], dOmega=[[0.1, 0.05], [0.05, 0]],
+                    db=[[0.1], [0.2]], dc=np.full((3, 2), 0.1))),
+    (three_mode, dict(dGamma=psd_gamma_bound(np.diag([0.08, 0.12, 0.2]), 0.5),
+                      dOmega=modal_density_bound(np.diag([4.0, 9.0, 25.0]), 0.1),
+                      dc=np.full((2, 3), 0.05), db=np.full((3, 2), 0.05))),
+]
+
+
+@pytest.mark.parametrize("make,bounds", STRUCTURES)
+def test_lft_closure_matches_direct_perturbation(make, bounds):
+    m = make()
+    um = uncertain(m, **bounds)
+    P, blocks = um.lft()
+    r = sum(rep for _, rep in blocks)
+    assert all(name.startswith("delta") for name in P.input_labels[:r])
+    assert all(name.startswith("delta") for name in P.output_labels[:r])
+    assert P.input_labels[r:] == list(um.nominal.input_labels)
+    w = np.linspace(0.05, 1.5 * np.sqrt(np.max(np.diag(m.Omega))), 80)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        d = rng.uniform(-1, 1, len(blocks))
+        s = um.perturbed(d)
+        H = ss_frf(s.A, s.B, s.C, s.D, w)
+        Hl = close_lft(P, blocks, d, w)
+        assert np.max(np.abs(Hl - H)) <= 1e-8 * np.max(np.abs(H))
+        # parameters within bounds
+        Om, Ga, b, c = um.perturbed_matrices(d)
+        assert np.all(np.abs(Om - m.Omega) <= um.dOmega + 1e-15)
+        assert np.all(np.abs(Ga - m.Gamma) <= um.dGamma + 1e-15)
+        assert np.allclose(Om, Om.T) and np.allclose(Ga, Ga.T)
+
+
+def test_symmetric_pair_is_one_repeated_scalar():
+    um = uncertain(two_mode(), dGamma=[[0, 0.02], [0.02, 0]])
+    _, blocks = um.lft()
+    assert blocks == [("delta_Gamma_0_1", 2)]
+    Om, Ga, _, _ = um.perturbed_matrices([0.5])
+    assert Ga[0, 1] == Ga[1, 0] == pytest.approx(0.01)
+
+
+def test_nominal_and_sample_deterministic():
+    m = two_mode()
+    um = uncertain(m, dGamma=[[0.01, 0], [0, 0]])
+    nom = um.nominal
+    ref = m.to_statespace()
+    w = np.linspace(0.5, 1.5, 20)
+    assert np.allclose(ss_frf(nom.A, nom.B, nom.C, nom.D, w), ss_frf(ref.A, ref.B, ref.C, ref.D, w))
+    a, b = um.sample(3, seed=4), um.sample(3, seed=4)
+    assert all(np.array_equal(x.A, y.A) for x, y in zip(a, b))
+    assert not np.array_equal(a[0].A, a[1].A)
+
+
+def test_bad_inputs():
+    m = two_mode()
+    with pytest.raises(ValueError, match="dGamma"):
+        uncertain(m, dGamma=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="dc"):
+        uncertain(m, dc=-np.ones((3, 2)))
+    um = uncertain(m, dGamma=[[0.01, 0], [0, 0]])
+    with pytest.raises(ValueError, match="deltas"):
+        um.perturbed([0.1, 0.2])
+
+
+def test_physical_bounds():
+    G = np.array([[0.04, 0.0], [0.0, 0.022]])
+    g = psd_gamma_bound(G)
+    assert g[0, 1] == pytest.approx(np.sqrt(0.04 * 0.022)) and g[0, 0] == 0
+    # at the bound Gamma is singular (PSD limit), beyond it indefinite
+    Gb = G + np.array([[0, 1], [1, 0]]) * g[0, 1]
+    assert np.min(np.linalg.eigvalsh(Gb)) == pytest.approx(0, abs=1e-12)
+    Gc = G + np.array([[0, 1], [1, 0]]) * g[0, 1] * 1.01
+    assert np.min(np.linalg.eigvalsh(Gc)) < 0
+    o = modal_density_bound(np.diag([1.0, 1.21]))
+    assert o[0, 1] == pytest.approx(0.21)
+    b = default_bounds(two_mode(), 0.5, 0.1)
+    assert b["dGamma"][0, 1] == pytest.approx(0.5 * np.sqrt(0.04 * 0.022))
+
+
+def test_frf_envelope_contains_samples():
+    um = uncertain(two_mode(), dGamma=[[0, 0.015], [0.015, 0]])
+    f = np.linspace(0.1, 0.25, 60)
+    env = um.frf_envelope(f, n_samples=30, seed=1)
+    # vertices are in the envelope exactly and the envelope is non-trivial at the zero
+    for d in (-1.0, 1.0):
+        s = um.perturbed([d])
+        H = np.abs(ss_frf(s.A, s.B, s.C, s.D, 2 * np.pi * f))
+        assert np.all(H <= env["mag_max"] * (1 + 1e-12)) and np.all(H >= env["mag_min"] * (1 - 1e-12))
+    assert np.max(env["mag_max"] / env["mag_min"]) > 1.5
+
+
+def test_multi_test_statistics_recovers_spread():
+    m = three_mode()
+    m = m.replace(cphi=np.random.default_rng(5).normal(size=(6, 3)), E=None,
+                  sensors=[f"s{i}" for i in range(6)])
+    rng = np.random.default_rng(7)
+    sg, so, sb, sc = 0.01, 0.05, 0.02, 0.03
+    models = [m]
+    for _ in range(400):
+        dG = rng.normal(scale=sg, size=(3, 3))
+        dG = np.triu(dG) + np.triu(dG, 1).T
+        dO = rng.normal(scale=so, size=(3, 3))
+        dO = np.triu(dO) + np.triu(dO, 1).T
+        mm = m.replace(Gamma=m.Gamma + dG, Omega=m.Omega + dO,
+                       phib=m.phib + rng.normal(scale=sb, size=m.phib.shape),
+                       cphi=m.cphi + rng.normal(scale=sc, size=m.cphi.shape))
+        perm = rng.permutation(3)
+        T = np.eye(3)[:, perm] @ np.diag(rng.choice([-1.0, 1.0], 3))
+        models.append(mm.replace(Omega=T.T @ mm.Omega @ T, Gamma=T.T @ mm.Gamma @ T,
+                                 phib=T.T @ mm.phib, cphi=mm.cphi @ T))
+    res = multi_test_statistics(models)
+    assert np.allclose(res.mean.Omega, m.Omega, atol=4 * so / np.sqrt(400))
+    assert np.allclose(res.mean.cphi, m.cphi, atol=4 * sc / np.sqrt(400))
+    np.testing.assert_allclose(res.std["Gamma"], sg, rtol=0.15)
+    np.testing.assert_allclose(res.std["Omega"], so, rtol=0.15)
+    np.testing.assert_allclose(res.std["phib"], sb, rtol=0.15)
+    np.testing.assert_allclose(res.std["cphi"], sc, rtol=0.15)
+    pd = res.tables["gamma_pct_pd_bound"]
+    assert pd[0, 1] == pytest.approx(100 * res.std["Gamma"][0, 1] / np.sqrt(0.08 * 0.12), rel=0.05)
+    um = uncertain(res.mean, **res.bounds)
+    assert len(um.blocks) > 0
