@@ -216,7 +216,9 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
         mid = 0.5 * (lo + hi)
         t.value = mid ** 2
         try:
-            prob.solve(solver=cp.CLARABEL)
+            with warnings.catch_warnings():  # "inaccurate" is handled by the re-certification
+                warnings.simplefilter("ignore", UserWarning)
+                prob.solve(solver=cp.CLARABEL)
             ok = prob.status in ("optimal", "optimal_inaccurate") and DRe.value is not None
         except cp.error.SolverError:
             ok = False
@@ -233,7 +235,8 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
                 lo = mid  # solver claimed feasibility the certificate does not confirm
         else:
             lo = mid
-    return best * nrm, (Maug, best_sc[0], best_sc[1])
+    # (D, G*nrm) certify best*nrm on the unscaled augmented matrix
+    return best * nrm, (Maug, best_sc[0], best_sc[1] * nrm)
 
 
 def _stab_along(Acl, Bcl, Ccl, Dcl, expand, direction, amax, n_grid=40):
