@@ -139,7 +139,7 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
     eps : float
         Relative complex regularisation.
     rtol : float
-        Relative tolerance of the bisection.
+        Relative tolerance of the bisection (stopped anyway below ``1e-3 ||M||``).
     lower : float
         Known lower value of the bound (bisection starts there).
 
@@ -212,7 +212,7 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
     best_sc = (np.eye(N), np.zeros((N, N)))
     lo = max(0.0, lower / nrm)
     hi = best
-    while hi - lo > rtol * hi:
+    while hi - lo > rtol * hi and hi > 1e-3:  # absolute floor: 1e-3 of ||M||
         mid = 0.5 * (lo + hi)
         t.value = mid ** 2
         try:
