@@ -120,3 +120,19 @@ def test_unstable_nominal_and_worst_case_gain():
     # closed-loop stiffness 1.5 + 0.5 delta: peak |1/(k - w^2 + j g w)| worst at k = 1, ~ 1/(0.02*1)
     assert wc["peak"] == pytest.approx(1 / (0.02 * 1.0), rel=0.05)
     assert np.all(wc["worst"] >= wc["nominal"] - 1e-12)
+
+
+def test_against_slycot_ab13md():
+    """AB13MD (SLICOT) on independent real scalar blocks, full-rank complex M."""
+    slycot = pytest.importorskip("slycot")
+    rng = np.random.default_rng(0)
+    compared = 0
+    for _ in range(4):
+        M = rng.normal(size=(3, 3)) + 1j * rng.normal(size=(3, 3))
+        ab = slycot.ab13md(M, np.array([1, 1, 1]), np.array([1, 1, 1]))[0]
+        ours = mu_upper(M, [1, 1, 1], eps=0.0, rtol=1e-4)[0]
+        nrm = np.linalg.norm(M, 2)
+        assert ours <= ab * 1.001 + 1e-6 * nrm
+        assert abs(ours - ab) <= 0.02 * ab + 1e-6 * nrm + 1e-3 * nrm
+        compared += ab > 0
+    assert compared >= 2
