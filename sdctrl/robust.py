@@ -20,10 +20,24 @@ __all__ = ["RobustResult", "robust_stability", "worst_case_gain", "mu_upper", "c
 class RobustResult:
     """Result of :func:`robust_stability`.
 
-    ``margin`` = 1/upper bound of mu (guaranteed stable up to ``margin`` times the bounds),
-    ``margin_lower`` = size of the smallest destabilising real Delta found, ``stable`` nominal
-    closed-loop stability, ``frequency`` critical frequency (Hz), ``worst_delta`` the destabilising
-    normalised parameters, ``mu`` (freq Hz, upper bound) curve, ``info``.
+    Parameters
+    ----------
+    margin : float
+        1/upper bound of mu: the loop is stable for every Delta up to ``margin`` times the bounds.
+    margin_lower : float
+        Size (max-norm of the normalised parameters) of the smallest destabilising Delta found.
+    stable : bool
+        Nominal closed-loop stability.
+    frequency : float
+        Critical frequency (Hz) of the mu upper bound peak.
+    worst_delta : ndarray
+        Destabilising normalised parameters found (size ``margin_lower``).
+    mu_freq : ndarray
+        Frequencies (Hz) of the mu upper bound curve.
+    mu : ndarray
+        Mu upper bound at ``mu_freq``.
+    info : dict
+        Diagnostics (number of frequencies, lower bound of mu).
     """
 
     margin: float

@@ -43,6 +43,8 @@ class UncertainModel:
         Bounds on the entries of ``phib``.
     dc : ndarray (ns, n)
         Bounds on the entries of ``cphi``.
+    params : list
+        Internal list of ``(name, (kind, i, j), repetition, bound)`` built by :func:`uncertain`.
     """
 
     model: object
@@ -388,10 +390,19 @@ def default_bounds(model, gamma_fraction: float = 0.5, omega_fraction: float = 0
 class MultiTestResult:
     """Mean model and spread from several tests (section 5.2.3).
 
-    Attributes: ``mean`` (NormalModeModel), ``std`` dict of standard deviations of
-    ``Gamma``/``Omega``/``phib``/``cphi``, ``bounds`` (keyword arguments for :func:`uncertain`),
-    ``tables`` (``gamma_std_over_mean``, ``gamma_pct_pd_bound``, ``omega_std_over_mean``),
-    ``aligned`` the aligned models.
+    Parameters
+    ----------
+    mean : NormalModeModel
+        Mean of the aligned models.
+    std : dict
+        Sample standard deviations of ``Gamma``, ``Omega``, ``phib``, ``cphi``.
+    bounds : dict
+        Keyword arguments for :func:`uncertain` (``k`` times the standard deviations).
+    tables : dict
+        ``gamma_std_over_mean``, ``gamma_pct_pd_bound`` (% of ``sqrt(g_ii g_jj)``),
+        ``omega_std_over_mean``, ``mac`` (MAC of each aligned mode to the reference).
+    aligned : list of NormalModeModel
+        The models with modes reordered and re-signed.
     """
 
     mean: object
