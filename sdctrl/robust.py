@@ -155,7 +155,8 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
     rtol : float
         Relative tolerance of the bisection (stopped anyway below ``1e-3 ||M||``).
     lower : float
-        Known lower value of the bound (bisection starts there).
+        Value of interest: if the bound is certified below it after one solve, that certificate
+        is returned at once (no bisection); otherwise the bisection searches above it.
 
     Returns
     -------
@@ -224,8 +225,26 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
     # initial upper: plain norm (D = I, G = 0) certified = 1
     best = 1.0
     best_sc = (np.eye(N), np.zeros((N, N)))
-    lo = max(0.0, lower / nrm)
+    lo = 0.0
     hi = best
+    if lower > 0 and lower / nrm < 1.0:
+        # only values above ``lower`` matter to the caller: one solve certifies "mu <= lower"
+        t.value = (lower / nrm) ** 2
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                prob.solve(solver=cp.CLARABEL)
+            if prob.status in ("optimal", "optimal_inaccurate") and DRe.value is not None:
+                Dv, Gv = scal()
+                cert = certify_dg(Ms, Dv, Gv)
+                if cert < best:
+                    best, best_sc = cert, (Dv, Gv)
+                    hi = cert
+                if cert <= (lower / nrm) * (1 + rtol):
+                    return best * nrm, (Maug, best_sc[0], best_sc[1] * nrm)
+            lo = lower / nrm
+        except (cp.error.SolverError, np.linalg.LinAlgError, ValueError):
+            pass
     while hi - lo > rtol * hi and hi > 1e-3:  # absolute floor: 1e-3 of ||M||
         mid = 0.5 * (lo + hi)
         t.value = mid ** 2
@@ -365,7 +384,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
             if cheap[i] <= cur:
                 out[i] = cheap[i]
                 continue
-            out[i] = mu_upper(Ms[i], reps, eps=eps, lower=0.0)[0]
+            out[i] = mu_upper(Ms[i], reps, eps=eps, lower=cur)[0]
             cur = max(cur, out[i])
         return out, cur
     mu, cur = eval_grid(w, mu_lo)
