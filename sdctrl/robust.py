@@ -12,8 +12,14 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["RobustResult", "robust_stability", "worst_case_gain", "mu_upper", "certify_dg",
-           "closed_loop_lft"]
+__all__ = [
+    "RobustResult",
+    "certify_dg",
+    "closed_loop_lft",
+    "mu_upper",
+    "robust_stability",
+    "worst_case_gain",
+]
 
 
 @dataclass(frozen=True)
@@ -167,7 +173,7 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
     """
     import cvxpy as cp
     M = np.asarray(M, complex)
-    r = M.shape[0]
+    M.shape[0]
     if eps > 0:
         Maug = np.block([[M, M], [eps * M, eps * M]])
     else:
@@ -440,8 +446,9 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     dict
         ``freq``, ``nominal`` gain, ``worst`` gain per frequency, ``peak``, ``worst_delta``.
     """
-    from .frf import ss_frf
     import control
+
+    from .frf import ss_frf
     nb = len(um.blocks)
     rng = np.random.default_rng(seed)
     if freq is None:

@@ -11,8 +11,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["UncertainModel", "uncertain", "psd_gamma_bound", "modal_density_bound",
-           "default_bounds", "MultiTestResult", "multi_test_statistics"]
+__all__ = [
+    "MultiTestResult",
+    "UncertainModel",
+    "default_bounds",
+    "modal_density_bound",
+    "multi_test_statistics",
+    "psd_gamma_bound",
+    "uncertain",
+]
 
 
 def _bound(arr, shape, name, symmetric):

@@ -1,7 +1,7 @@
 """Tests of sdctrl.robust: mixed real mu bounds against closed-form / 1-D sweep margins."""
+import control
 import numpy as np
 import pytest
-import control
 
 from sdctrl.modal import NormalModeModel
 from sdctrl.robust import certify_dg, closed_loop_lft, mu_upper, robust_stability, worst_case_gain

@@ -4,8 +4,13 @@ import pytest
 
 from sdctrl.frf import ss_frf
 from sdctrl.modal import NormalModeModel
-from sdctrl.uncertainty import (default_bounds, modal_density_bound, multi_test_statistics,
-                                psd_gamma_bound, uncertain)
+from sdctrl.uncertainty import (
+    default_bounds,
+    modal_density_bound,
+    multi_test_statistics,
+    psd_gamma_bound,
+    uncertain,
+)
 
 
 def two_mode():
@@ -31,13 +36,13 @@ def close_lft(P, blocks, deltas, w):
 
 
 STRUCTURES = [
-    (two_mode, dict(dGamma=[[0.01, 0.02], [0, 0.005]])),
-    (two_mode, dict(dOmega=[[0.1, 0.05], [0.05, 0.0]], db=[[0.1], [0.0]])),
-    (two_mode, dict(dGamma=[[0.01, 0.02], [0, 0]], dOmega=[[0.1, 0.05], [0.05, 0]],
-                    db=[[0.1], [0.2]], dc=np.full((3, 2), 0.1))),
-    (three_mode, dict(dGamma=psd_gamma_bound(np.diag([0.08, 0.12, 0.2]), 0.5),
-                      dOmega=modal_density_bound(np.diag([4.0, 9.0, 25.0]), 0.1),
-                      dc=np.full((2, 3), 0.05), db=np.full((3, 2), 0.05))),
+    (two_mode, {"dGamma": [[0.01, 0.02], [0, 0.005]]}),
+    (two_mode, {"dOmega": [[0.1, 0.05], [0.05, 0.0]], "db": [[0.1], [0.0]]}),
+    (two_mode, {"dGamma": [[0.01, 0.02], [0, 0]], "dOmega": [[0.1, 0.05], [0.05, 0]],
+                    "db": [[0.1], [0.2]], "dc": np.full((3, 2), 0.1)}),
+    (three_mode, {"dGamma": psd_gamma_bound(np.diag([0.08, 0.12, 0.2]), 0.5),
+                      "dOmega": modal_density_bound(np.diag([4.0, 9.0, 25.0]), 0.1),
+                      "dc": np.full((2, 3), 0.05), "db": np.full((3, 2), 0.05)}),
 ]
 
 
@@ -59,7 +64,7 @@ def test_lft_closure_matches_direct_perturbation(make, bounds):
         Hl = close_lft(P, blocks, d, w)
         assert np.max(np.abs(Hl - H)) <= 1e-8 * np.max(np.abs(H))
         # parameters within bounds
-        Om, Ga, b, c = um.perturbed_matrices(d)
+        Om, Ga, _b, _c = um.perturbed_matrices(d)
         assert np.all(np.abs(Om - m.Omega) <= um.dOmega + 1e-15)
         assert np.all(np.abs(Ga - m.Gamma) <= um.dGamma + 1e-15)
         assert np.allclose(Om, Om.T) and np.allclose(Ga, Ga.T)
@@ -69,7 +74,7 @@ def test_symmetric_pair_is_one_repeated_scalar():
     um = uncertain(two_mode(), dGamma=[[0, 0.02], [0.02, 0]])
     _, blocks = um.lft()
     assert blocks == [("delta_Gamma_0_1", 2)]
-    Om, Ga, _, _ = um.perturbed_matrices([0.5])
+    _Om, Ga, _, _ = um.perturbed_matrices([0.5])
     assert Ga[0, 1] == Ga[1, 0] == pytest.approx(0.01)
 
 
