@@ -368,6 +368,21 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
             cross.append(wc)
             if a < best_a:
                 best_a, best_dir = a, d * a
+    # local refinement of the best direction (hill climbing on the direction, projected to the box)
+    if np.isfinite(best_a) and nb > 1:
+        step = 0.5
+        for _ in range(3 * n_directions):
+            d = best_dir / best_a + step * rng.normal(size=nb)
+            d = np.clip(d, -1, 1)
+            if not np.any(d):
+                continue
+            d = d / np.max(np.abs(d))
+            a, wc = _stab_along(Acl, Bcl, Ccl, Dcl, expand, d, best_a, n_grid=20)
+            if a < best_a:
+                best_a, best_dir = a, d * a
+                cross.append(wc)
+            else:
+                step *= 0.93
     # ---- upper bound over frequency
     if freq is None:
         wn = np.abs(ev)
