@@ -27,21 +27,15 @@ _EXPORTS = {
     "save_npz": "sdctrl.io",
     "load_npz": "sdctrl.io",
     # identification (chapter III)
-    "initial_poles": "sdctrl.identify",
-    "identify": "sdctrl.identify",
     "ComplexModeModel": "sdctrl.identify",
-    "normal_modes": "sdctrl.identify",
     # modal models
     "NormalModeModel": "sdctrl.modal",
     # finite elements
     "FEModel": "sdctrl.fe",
     "testbed": "sdctrl.testbed",
     "testbed_frf": "sdctrl.testbed",
-    # hybrid models (chapter V)
-    "hybrid": "sdctrl.hybrid",
     # uncertainty and closed loop
     "UncertainModel": "sdctrl.uncertainty",
-    "rms": "sdctrl.closedloop",
     "robust_stability": "sdctrl.robust",
     "RobustResult": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",

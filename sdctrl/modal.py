@@ -155,11 +155,36 @@ class NormalModeModel:
 
     # --- doors into the module functions ------------------------------------------
     def frf(self, freq, quantity: str = "displacement"):
-        """FRF of the model, eq. (2.15), for ``quantity``; see :func:`sdctrl.modal.frf`."""
+        """FRF of the model, eq. (2.15); see :func:`sdctrl.modal.frf`.
+
+        Parameters
+        ----------
+        freq : array_like
+            Frequencies in Hz, strictly increasing and positive.
+        quantity : {"displacement", "velocity", "acceleration"}
+            Measured quantity of the returned FRF (``(j w)^k`` times the displacement FRF).
+
+        Returns
+        -------
+        FRF
+        """
         return frf(self, freq, quantity)
 
     def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
-        """python-control StateSpace; see :func:`sdctrl.modal.to_statespace`."""
+        """python-control StateSpace with named signals; see :func:`sdctrl.modal.to_statespace`.
+
+        Parameters
+        ----------
+        quantity : {"displacement", "velocity", "acceleration"}
+            Output quantity.
+        omega_c : float, optional
+            Cut-off (rad/s) of the critically damped correction mode realising ``E`` for
+            velocity/acceleration outputs; default ten times the highest modal frequency.
+
+        Returns
+        -------
+        control.StateSpace
+        """
         return to_statespace(self, quantity, omega_c)
 
 

@@ -143,7 +143,9 @@ def test_static_correction_completes_the_static_response_exactly():
     nm = fe.normal_mode_model(b, c, 5, static=True)
     assert nm.info["n_static"] == 3 and nm.n == 8
     dc = nm.cphi @ np.linalg.solve(nm.Omega, nm.phib)
-    assert np.allclose(dc, ref, rtol=1e-8, atol=1e-10 * np.abs(ref).max())
+    # cond(K) of this 25-element cantilever is 1.5e8: cross terms that are exactly zero come out
+    # at ~1e-10 of the largest gain through the modal solve, so the absolute floor sits at 1e-9
+    assert np.allclose(dc, ref, rtol=1e-8, atol=1e-9 * np.abs(ref).max())
     # correction modes are critically damped, above the retained modes
     wc = np.sqrt(np.diag(nm.Omega)[5:])
     assert np.allclose(np.diag(nm.Gamma)[5:], 2 * wc)
