@@ -28,6 +28,7 @@ _EXPORTS = {
     "load_npz": "sdctrl.io",
     # identification (chapter III)
     "ComplexModeModel": "sdctrl.identify",
+    "normal_modes": "sdctrl.identify",
     # modal models
     "NormalModeModel": "sdctrl.modal",
     # finite elements

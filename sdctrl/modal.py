@@ -4,7 +4,11 @@
 modes: ``Omega`` (rad/s)^2, ``Gamma`` rad/s (full when damping is non-proportional),
 ``cphi`` (ns, n) modal observability, ``phib`` (n, na) modal controllability and
 ``E`` (ns, na) the static correction of truncated high-frequency modes (2.17).
-All modal quantities describe the displacement/force system.
+An optional ``F`` (ns, na) adds the low-frequency (residual mass) correction ``F/s^2`` of
+truncated low-frequency modes (2.15), (2.23)-(2.24).  Static correction modes (2.21)-(2.22)
+are carried as ordinary modes (appended columns of ``cphi``/``phib``, critically damped
+entries of ``Gamma``), as :meth:`sdctrl.FEModel.normal_mode_model` builds them with
+``static=True``.  All modal quantities describe the displacement/force system.
 """
 
 from __future__ import annotations
@@ -31,6 +35,9 @@ __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with
 class NormalModeModel:
     """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u``.
 
+    With a low-frequency correction ``F`` the displacement output is
+    ``y = cphi p + (E + F/s^2) u`` (2.15), (2.24).
+
     Parameters
     ----------
     Omega : array_like, shape (n, n)
@@ -55,6 +62,10 @@ class NormalModeModel:
         Cut-off (rad/s) of the critically damped correction mode used to realise
         ``E`` for velocity/acceleration outputs; default ten times the highest
         modal frequency.
+    F : array_like, shape (ns, na), optional
+        Low-frequency (residual mass) correction of truncated low-frequency modes: the
+        displacement response carries ``F/s^2`` (2.23); ``to_statespace`` realises it
+        exactly with one rigid-body correction mode per actuator (2.24).
     """
 
     Omega: np.ndarray
@@ -68,6 +79,7 @@ class NormalModeModel:
     dofs: tuple[str, ...] | None = None
     omega_c: float | None = None
     info: dict = field(default_factory=dict, compare=False, repr=False)
+    F: np.ndarray | None = None
 
     def __post_init__(self):
         Omega = check_square(self.Omega, "Omega")
@@ -87,6 +99,9 @@ class NormalModeModel:
         E = None
         if self.E is not None:
             E = as_array(self.E, "E", shape=(ns, na))
+        F = None
+        if self.F is not None:
+            F = as_array(self.F, "F", shape=(ns, na))
         shapes = None
         if self.shapes is not None:
             shapes = as_array(self.shapes, "shapes", ndim=2)
@@ -108,6 +123,7 @@ class NormalModeModel:
         sets(self, "cphi", readonly(cphi))
         sets(self, "phib", readonly(phib))
         sets(self, "E", readonly(E))
+        sets(self, "F", readonly(F))
         sets(self, "shapes", readonly(shapes))
         sets(self, "dofs", dofs)
         sets(self, "omega_c", omega_c)
@@ -149,7 +165,7 @@ class NormalModeModel:
     def replace(self, **changes) -> NormalModeModel:
         """Copy with some fields changed (validated again)."""
         kw = {k: getattr(self, k) for k in ("Omega", "Gamma", "cphi", "phib", "E", "sensors",
-                                            "actuators", "shapes", "dofs", "omega_c", "info")}
+                                            "actuators", "shapes", "dofs", "omega_c", "info", "F")}
         kw.update(changes)
         return NormalModeModel(**kw)
 
@@ -281,7 +297,7 @@ def poles(model: NormalModeModel) -> np.ndarray:
 def frf(model: NormalModeModel, freq, quantity: str = "displacement"):
     """FRF of a normal-mode model, eq. (2.15), vectorised over frequency.
 
-    ``H_d(s) = cphi (s^2 I + s Gamma + Omega)^-1 phib + E`` and
+    ``H_d(s) = cphi (s^2 I + s Gamma + Omega)^-1 phib + E + F/s^2`` and
     ``H_q = (j w)^k H_d`` with ``k = 0, 1, 2`` for displacement, velocity,
     acceleration.
 
@@ -320,6 +336,8 @@ def _frf_array(model: NormalModeModel, omega: np.ndarray) -> np.ndarray:
         H = model.cphi @ X
     if model.E is not None:
         H = H + model.E
+    if model.F is not None:
+        H = H + model.F / (s[:, None, None] ** 2)
     return H
 
 
@@ -357,6 +375,12 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
     actuator gets a critically damped correction mode ``w_c^2/(s + w_c)^2`` (2.20):
     ``E (j w)^k w_c^2/(j w + w_c)^2`` equals the E term up to a relative error of
     about ``2 w / w_c`` in the band.
+
+    Static correction modes (2.21)-(2.22) carried as modes of the model are realised like
+    the other modes.  A low-frequency correction ``F`` (2.23) is realised exactly, for every
+    quantity, by one rigid-body correction mode per actuator (2.24), ``z'' = u`` and
+    ``y = F z`` (displacement), ``F z'`` (velocity) or ``F u`` (acceleration): its states
+    ``zr``/``dzr`` are double integrators (poles at 0).
     """
     import control
 
@@ -397,6 +421,20 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
             C = np.hstack([C, Cc])
             D = D + Dc
             states += [f"zc{j}" for j in range(na)] + [f"dzc{j}" for j in range(na)]
+    if model.F is not None:
+        # one rigid-body correction mode per actuator (2.24): z'' = u, y_d = F z
+        Zr, Ir = np.zeros((na, na)), np.eye(na)
+        Ar = np.block([[Zr, Ir], [Zr, Zr]])
+        Br = np.vstack([Zr, Ir])
+        Cr = [np.hstack([model.F, np.zeros((ns, na))]), np.hstack([np.zeros((ns, na)), model.F]),
+              np.zeros((ns, 2 * na))][k]
+        if k == 2:
+            D = D + model.F
+        m = A.shape[0]
+        A = np.block([[A, np.zeros((m, 2 * na))], [np.zeros((2 * na, m)), Ar]])
+        B = np.vstack([B, Br])
+        C = np.hstack([C, Cr])
+        states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
     return control.ss(A, B, C, D,
                       inputs=[signal_name(a) for a in model.actuators],
                       outputs=[signal_name(s) for s in model.sensors],
