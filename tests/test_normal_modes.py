@@ -120,6 +120,26 @@ def test_one_collocated_pair_and_labels_suffice():
     assert ef < 1e-12 and eG < 1e-9 and ec < 1e-11 and eb < 1e-11
 
 
+def test_mode_selection_drops_out_of_band_poles():
+    true, col = _truth(12)
+    cm = _complex_modes(true, col)
+    rng = np.random.default_rng(8)
+    extra = 1e-6 * (rng.standard_normal((1, 12, 3)) + 1j * rng.standard_normal((1, 12, 3)))
+    big = cm.replace(poles=np.r_[cm.poles, -3.0 + 2j * np.pi * 60], in_band=[True] * 6 + [False],
+                     residues=np.concatenate([cm.residues, extra]))
+    nm = sd.normal_modes(big, modes=big.in_band)
+    assert nm.n == 6 and max(_errors(nm, true)) < 1e-10
+    assert max(_errors(sd.normal_modes(big, modes=[0, 1, 2, 3, 4, 5]), true)) < 1e-10
+    with pytest.raises(ValueError, match="modes: index out of range"):
+        sd.normal_modes(big, modes=[0, 7])
+    with pytest.raises(ValueError, match="modes as a boolean mask must have 7"):
+        sd.normal_modes(big, modes=[True, False])
+    with pytest.raises(ValueError, match="modes selects no mode"):
+        sd.normal_modes(big, modes=np.zeros(7, bool))
+    with pytest.raises(TypeError, match="modes must be"):
+        sd.normal_modes(big, modes=[0.5, 1.5])
+
+
 def test_proportional_damping_gives_diagonal_gamma():
     true, col = _truth(12)
     true = true.proportional()
