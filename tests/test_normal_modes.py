@@ -208,6 +208,21 @@ def test_newton_from_zero_converges_quadratically():
     assert info["delta_radius"] < 1e-2
     assert np.linalg.norm(psi_p @ psi_p.T + (psi_p @ psi_p.T).conj()) < 1e-13 * np.linalg.norm(
         psi_p @ psi_p.conj().T)
+    # (3.52) as a CARE, G X + X G - X A0 X - A0 = 0: Hamiltonian [[G, -A0], [A0, -G]].  The
+    # stable-subspace root a generic solver returns is a huge, useless root; the small root
+    # found by Newton from 0 is the one of the anti-stable subspace.
+    A0 = 2 * (psi @ psi.T).real
+    G = 2 * (psi @ psi.conj().T).real
+    n = psi.shape[0]
+    ev, V = np.linalg.eig(np.block([[G, -A0], [A0, -G]]))
+    roots = {}
+    for name, sel in (("stable", ev.real < 0), ("antistable", ev.real > 0)):
+        X = (V[n:, sel] @ np.linalg.inv(V[:n, sel])).real
+        assert np.linalg.norm(A0 - X @ G - G @ X + X @ A0 @ X) < 1e-6 * np.linalg.norm(G)
+        roots[name] = X
+    # measured: |eig| 6.8e3 for the stable-subspace root, 6.6e-3 for the small one
+    assert np.abs(np.linalg.eigvals(roots["stable"])).max() > 100
+    assert np.allclose(info["delta"], roots["antistable"], atol=1e-10)
 
 
 def test_non_positive_definite_mass_is_reported():

@@ -250,6 +250,13 @@ def proper_modes(psi: np.ndarray, tol: float = 1e-13, maxiter: int = 50):
     return a large root, useless here).  The corrected modes are
     ``psi~ = (I - delta^2)^-1 (psi - delta conj(psi))``.
 
+    The thesis proposes the real positive-definite root.  In practice the small root is
+    real and symmetric but generally *indefinite* (eigenvalues of both signs, of the order
+    of the properness error); it is the anti-stabilising solution of the CARE
+    ``G X + X G - X A0 X - A0 = 0`` (Hamiltonian ``[[G, -A0], [A0, -G]]``), while the
+    stabilising one returned by standard solvers has ``|eig| >> 1`` and violates the
+    minimum condition (3.54), ``|eig(delta)| < 1``.
+
     Parameters
     ----------
     psi : ndarray, shape (n, n)
