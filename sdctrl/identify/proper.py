@@ -79,7 +79,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     -------
     NormalModeModel
         ``Omega`` diagonal in (rad/s)^2, full ``Gamma`` in rad/s, ``cphi`` (ns, n),
-        ``phib`` (n, na), ``E`` and ``F`` of ``cm`` (None when zero), labels of ``cm``.
+        ``phib`` (n, na), ``E`` and ``F`` of ``cm`` (None when negligible: below
+        ``1e-10`` of the modal flexibility scale, see ``info["E_relative_size"]`` and
+        ``info["F_relative_size"]``), labels of ``cm``.
         ``info`` holds the diagnostics: ``properness_before``/``properness_after``
         (``||psi psi^T|| / ||psi psi^H||``), ``delta`` and ``delta_eigenvalues``,
         ``delta_radius`` (max modulus, must be well below 1, 3.54),
@@ -180,8 +182,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
 
     info.update({"c_T": cT, "M_T": MT, "C_T": CT, "K_T": KT,
                  "cpsi": cpsi, "psib": psib, "psi_proper": psi_p})
-    E = np.array(cm.E) if np.any(cm.E) else None
-    F = np.array(cm.F) if np.any(cm.F) else None
+    E, F = _asymptotic(cm.E, cm.F, lam, R, info)
     nm = NormalModeModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=cm.sensors,
                          actuators=cm.actuators, F=F)
     # --- checks on the result ------------------------------------------------------------
@@ -382,6 +383,25 @@ def _single_thread():
     if not _CONTROLLER:
         _CONTROLLER.append(ThreadpoolController())
     return _CONTROLLER[0].limit(limits=1, user_api="blas")
+
+
+def _asymptotic(E, F, lam, R, info, rtol: float = 1e-10):
+    """``E`` and ``F`` of the complex-mode model, None when negligible (round-off of a fit).
+
+    ``E`` is compared with the off-resonance flexibility scale of the modes,
+    ``max_j max|R_j| / |lambda_j|``, and ``F`` through ``F / w^2`` at the lowest pole; a
+    negligible ``F`` would otherwise add needless rigid-body states (2.24) to the
+    state-space form.
+    """
+    ref = max(float(np.max(np.abs(R).max(axis=(1, 2)) / np.abs(lam))), 1e-300)
+    wmin = float(np.abs(lam).min())
+    out = []
+    for name, X, scale in (("E", E, 1.0), ("F", F, wmin**-2)):
+        size = float(np.abs(X).max()) * scale if X is not None and np.size(X) else 0.0
+        keep = size > rtol * ref
+        info[f"{name}_relative_size"] = size / ref
+        out.append(np.array(X, float) if keep else None)
+    return out
 
 
 def _mode_selection(modes, n: int) -> np.ndarray:
