@@ -116,3 +116,20 @@ def test_proportional_copy_and_uncertain_door():
     assert np.abs(nm.Gamma - prop.Gamma).max() > 0
     um = nm.uncertain(dGamma=0.1 * np.abs(nm.Gamma))
     assert um.nominal.nstates == 2 * nm.n
+
+
+def test_operations_keep_the_correction_terms():
+    nm, _, _ = _full_model(_chain())
+    E = 1e-6 * np.ones((nm.ns, nm.na))
+    F = 2.0 * np.ones((nm.ns, nm.na))
+    m = nm.replace(E=E, F=F)
+    n = m.n
+    for out in (m.proportional(), m.modified(dOmega=10.0 * np.eye(n)),
+                m.with_feedback(np.ones((n, 1)), np.ones((1, n)), kv=0.1, modal=True)):
+        assert np.array_equal(out.E, E) and np.array_equal(out.F, F)
+    # the FRF carries E + F/s^2 and the StateSpace realises F exactly (2.24)
+    f = np.linspace(1.0, 40.0, 100)
+    s = 2j * np.pi * f[:, None, None]
+    assert np.allclose(m.frf(f).H - nm.frf(f).H, E + F / s**2, rtol=1e-10, atol=0)
+    Hs = np.moveaxis(m.to_statespace()(2j * np.pi * f), -1, 0)
+    assert np.abs(Hs - m.frf(f).H).max() < 1e-9 * np.abs(m.frf(f).H).max()
