@@ -35,6 +35,7 @@ _EXPORTS = {
     "FEModel": "sdctrl.fe",
     "testbed": "sdctrl.testbed",
     "testbed_frf": "sdctrl.testbed",
+    "hybrid": "sdctrl.hybrid",
     # uncertainty and closed loop
     "UncertainModel": "sdctrl.uncertainty",
     "robust_stability": "sdctrl.robust",
