@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-__all__ = ["main", "demo"]
+__all__ = ["demo", "main"]
 
 
 def _chain_model():
@@ -85,9 +85,9 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
     lines = [
         "# sdctrl demo report",
         "",
-        f"Built-in model: {model.n}-mode spring/mass chain with a discrete dashpot "
+        (f"Built-in model: {model.n}-mode spring/mass chain with a discrete dashpot "
         "(non-proportional damping), sensors "
-        f"{', '.join(model.sensors)}, actuators {', '.join(model.actuators)}.",
+        f"{', '.join(model.sensors)}, actuators {', '.join(model.actuators)}."),
         "",
         "## Modes of the model",
         "",

@@ -59,8 +59,16 @@ class FRF:
     (5, 1, 1)
     """
 
-    __slots__ = ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
-                 "units")
+    __slots__ = (
+        "H",
+        "actuators",
+        "coherence",
+        "collocated",
+        "freq",
+        "quantity",
+        "sensors",
+        "units",
+    )
 
     def __init__(self, freq, H, quantity: str = "displacement",
                  sensors: Sequence[str] | None = None, actuators: Sequence[str] | None = None,
@@ -125,9 +133,9 @@ class FRF:
                 f"{ns} sensors x {na} actuators)")
 
     def _replace(self, **changes) -> FRF:
-        kw = dict(freq=self.freq, H=self.H, quantity=self.quantity, sensors=self.sensors,
-                  actuators=self.actuators, collocated=self.collocated,
-                  coherence=self.coherence, units=self.units)
+        kw = {"freq": self.freq, "H": self.H, "quantity": self.quantity, "sensors": self.sensors,
+              "actuators": self.actuators, "collocated": self.collocated,
+              "coherence": self.coherence, "units": self.units}
         kw.update(changes)
         return FRF(**kw)
 
@@ -369,10 +377,10 @@ def estimate_frf(u, y, fs: float, nperseg: int | None = None, *, sensors=None, a
         raise TypeError(f"nperseg must be an integer, got {type(nperseg).__name__}")
     if not 8 <= nperseg <= nt:
         raise ValueError(f"nperseg must lie in [8, {nt}] (number of samples), got {nperseg}")
-    na, ns = U.shape[1], Y.shape[1]
+    na = U.shape[1]
     if nt < 2 * nperseg and na > 1:
         raise ValueError("u, y: too few samples for a MIMO estimate; need several segments")
-    kw = dict(fs=fs, nperseg=int(nperseg), window=window, axis=0, detrend="constant")
+    kw = {"fs": fs, "nperseg": int(nperseg), "window": window, "axis": 0, "detrend": "constant"}
     # G_uu[a, b] = E[U_a U_b^*]; scipy's csd(x, y) = E[X^* Y]
     f, Guu = signal.csd(U[:, None, :], U[:, :, None], **kw)   # (nf, na, na) after moveaxis
     _, Gyu = signal.csd(U[:, None, :], Y[:, :, None], **kw)   # E[U_a^* Y_s] -> (nf, ns, na)

@@ -21,7 +21,7 @@ import numpy as np
 
 from sdctrl.frf import FRF
 
-__all__ = ["read_uff", "write_uff", "save_npz", "load_npz"]
+__all__ = ["load_npz", "read_uff", "save_npz", "write_uff"]
 
 _DIRS = {"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
 _DIR_NAMES = {v: k for k, v in _DIRS.items()}
@@ -76,16 +76,16 @@ def write_uff(frf: FRF, path, binary: bool = True, overwrite: bool = True) -> No
     path = _check_path(path)
     if overwrite and os.path.exists(path):
         os.remove(path)
-    nf, ns, na = frf.H.shape
+    _, ns, na = frf.H.shape
     uff = pyuff.UFF(path)
     units = frf.units if frf.units else "NONE"
     df = np.diff(frf.freq)
     even = frf.freq.size > 1 and np.allclose(df, df[0], rtol=1e-10, atol=0)
-    axis = dict(abscissa_spacing=0)
+    axis = {"abscissa_spacing": 0}
     if not binary:
         if even:      # ASCII min/increment keep more digits than an uneven ASCII axis
-            axis = dict(abscissa_spacing=1, abscissa_min=float(frf.freq[0]),
-                        abscissa_inc=float(df[0]))
+            axis = {"abscissa_spacing": 1, "abscissa_min": float(frf.freq[0]),
+                    "abscissa_inc": float(df[0])}
         else:
             warnings.warn("ASCII UFF stores an uneven frequency axis in single precision; "
                           "use binary=True for an exact round trip", stacklevel=2)
@@ -252,10 +252,10 @@ def save_npz(frf: FRF, path) -> None:
     if not isinstance(frf, FRF):
         raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
     path = _check_path(path)
-    kw = dict(freq=frf.freq, H=frf.H, quantity=np.array(frf.quantity),
-              sensors=np.array(frf.sensors), actuators=np.array(frf.actuators),
-              collocated=np.array(frf.collocated, dtype=int).reshape(-1, 2),
-              units=np.array(frf.units or ""))
+    kw = {"freq": frf.freq, "H": frf.H, "quantity": np.array(frf.quantity),
+          "sensors": np.array(frf.sensors), "actuators": np.array(frf.actuators),
+          "collocated": np.array(frf.collocated, dtype=int).reshape(-1, 2),
+          "units": np.array(frf.units or "")}
     if frf.coherence is not None:
         kw["coherence"] = frf.coherence
     np.savez(path, **kw)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["modes_table", "markdown_table"]
+__all__ = ["markdown_table", "modes_table"]
 
 
 def markdown_table(header, rows) -> str:

@@ -20,8 +20,8 @@ def _env():
 
 @pytest.mark.parametrize("script", EXAMPLES, ids=[p.name for p in EXAMPLES])
 def test_example_runs(script, tmp_path):
-    proc = subprocess.run([sys.executable, str(script), str(tmp_path)], cwd=tmp_path, env=_env(),
-                          capture_output=True, text=True, timeout=600)
+    proc = subprocess.run([sys.executable, str(script), str(tmp_path)], check=False,
+                          cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, f"{script.name} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
 
 
@@ -57,10 +57,10 @@ def test_cli_console_script_and_info(tmp_path):
     sd.write_uff(frf, tmp_path / "t.uff")
     exe = pathlib.Path(sys.executable).with_name("sdctrl")
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "sdctrl.cli"]
-    proc = subprocess.run(cmd + ["info", str(tmp_path / "t.uff")], capture_output=True, text=True,
-                          env=_env(), timeout=120)
+    proc = subprocess.run(cmd + ["info", str(tmp_path / "t.uff")], check=False,
+                          capture_output=True, text=True, env=_env(), timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "2 sensors x 1 actuators" in proc.stdout and "N1.x/N1.x" in proc.stdout
-    bad = subprocess.run(cmd + ["info", str(tmp_path / "missing.uff")], capture_output=True,
-                         text=True, env=_env(), timeout=120)
+    bad = subprocess.run(cmd + ["info", str(tmp_path / "missing.uff")], check=False,
+                         capture_output=True, text=True, env=_env(), timeout=120)
     assert bad.returncode == 2 and "does not exist" in bad.stderr

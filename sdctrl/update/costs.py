@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quadratic", "logls", "relative_error", "mac", "comac"]
+__all__ = ["comac", "logls", "mac", "quadratic", "relative_error"]
 
 
 def _pair(model, test):
