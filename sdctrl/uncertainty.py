@@ -309,6 +309,11 @@ def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainMod
     -------
     UncertainModel
     """
+    if getattr(model, "F", None) is not None and np.any(model.F):
+        raise ValueError("model has a low-frequency term F (residual mass, 2.23): its "
+                         "rigid-body correction states make every loop marginally stable, so "
+                         "robustness checks would be meaningless; model the modes below the "
+                         "band explicitly or drop F (model.replace(F=None))")
     n, ns, na = model.n, model.ns, model.na
     dG = _bound(dGamma, (n, n), "dGamma", True)
     dO = _bound(dOmega, (n, n), "dOmega", True)

@@ -158,3 +158,13 @@ def test_multi_test_statistics_recovers_spread():
     assert pd[0, 1] == pytest.approx(100 * res.std["Gamma"][0, 1] / np.sqrt(0.08 * 0.12), rel=0.05)
     um = uncertain(res.mean, **res.bounds)
     assert len(um.blocks) > 0
+
+
+def test_residual_mass_term_is_refused():
+    m = two_mode()
+    mF = m.replace(F=np.full((3, 1), 0.01))
+    with pytest.raises(ValueError, match="low-frequency term F"):
+        uncertain(mF, dGamma=np.diag([0.01, 0.0]))
+    # the door on the model says the same
+    with pytest.raises(ValueError, match="low-frequency term F"):
+        mF.uncertain(dGamma=np.diag([0.01, 0.0]))
