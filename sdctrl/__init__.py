@@ -39,6 +39,7 @@ _EXPORTS = {
     # uncertainty and closed loop
     "UncertainModel": "sdctrl.uncertainty",
     "robust_stability": "sdctrl.robust",
+    "rms": "sdctrl.closedloop",
     "RobustResult": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",
 }

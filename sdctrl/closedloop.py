@@ -1,0 +1,453 @@
+"""Closed loops through python-control and band-limited RMS responses.
+
+- :func:`feedback` closes a user controller around a plant with
+  ``control.interconnect`` so that every signal keeps its name (``control.feedback``
+  drops them), python-control's sign convention ``u = w - K y``;
+- :func:`rate_outputs` and :func:`strut_plant` expose the relative displacement and
+  velocity of a strut, so that a D-strut (5.3) ``F = -kv y' - kp y`` is the static
+  controller :func:`strut_controller`;
+- :func:`rms` is the RMS of each output for independent band-limited white-noise inputs,
+  integrated exactly over the band (closed form, no frequency sampling);
+- :func:`modal_damping` lists the frequencies and damping ratios of the poles in a band.
+
+Frequencies at the surface are in Hz, inside in rad/s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+
+from sdctrl._validate import as_array, signal_name
+
+__all__ = ["feedback", "modal_damping", "rate_outputs", "rms", "strut_controller",
+           "strut_plant"]
+
+
+# ----------------------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------------------
+def _as_ss(sys, name: str = "sys"):
+    """A continuous-time ``control.StateSpace`` from a StateSpace, a transfer function or
+    any sdctrl model with ``to_statespace()`` (displacement outputs)."""
+    import control
+
+    if isinstance(sys, control.StateSpace):
+        G = sys
+    elif isinstance(sys, control.TransferFunction):
+        G = control.ss(sys)
+    elif hasattr(sys, "to_statespace"):
+        G = sys.to_statespace()
+    else:
+        raise TypeError(f"{name} must be a control.StateSpace, a TransferFunction or a model "
+                        f"with to_statespace(), got {type(sys).__name__}")
+    if G.dt not in (0, None):
+        raise ValueError(f"{name} must be a continuous-time system, got dt={G.dt}")
+    return G
+
+
+def _band(band, name: str = "band") -> tuple[float, float]:
+    """(lo, hi) in Hz with 0 <= lo < hi, hi possibly inf."""
+    try:
+        lo, hi = (float(v) for v in band)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair (fmin, fmax) in Hz, got {band!r}") from None
+    if not np.isfinite(lo) or np.isnan(hi) or lo < 0 or hi <= lo:
+        raise ValueError(f"{name} must satisfy 0 <= fmin < fmax (fmax may be inf), got "
+                         f"({lo:g}, {hi:g})")
+    return lo, hi
+
+
+def _psd(psd, nu: int) -> np.ndarray:
+    S = as_array(psd, "psd", ndim=(0, 1))
+    if S.ndim == 0:
+        S = np.full(nu, float(S))
+    if S.shape != (nu,):
+        raise ValueError(f"psd must be a scalar or one value per input ({nu},), got {S.shape}")
+    if np.any(S < 0):
+        raise ValueError("psd must be non-negative (one-sided PSD, units^2/Hz)")
+    return S
+
+
+def _mats(G):
+    A, B, C, D = (np.asarray(X, float) for X in (G.A, G.B, G.C, G.D))
+    return A, B, C, D
+
+
+def _check_stable(A: np.ndarray, what: str = "sys") -> None:
+    if A.shape[0] == 0:
+        return
+    lam = np.linalg.eigvals(A)
+    scale = max(np.abs(lam).max(), 1.0)
+    if np.any(lam.real >= -1e-13 * scale):
+        worst = lam[np.argmax(lam.real)]
+        raise ValueError(f"{what} must be asymptotically stable for a finite RMS response "
+                         f"(pole {worst:.4g} rad/s); damp rigid-body modes or close the loop "
+                         "first")
+
+
+# ----------------------------------------------------------------------------------------
+# RMS
+# ----------------------------------------------------------------------------------------
+def _band_integral(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
+    """``W = int_{w1}^{w2} H(jw) S H(jw)^H dw`` (finite w2), closed form.
+
+    With ``R = (jw I - A)^-1``: ``L = int R dw = -j [log(j w2 I - A) - log(j w1 I - A)]``
+    (principal logarithms, continuous along the path because ``A`` is stable) and
+    ``X = int R Q R^H dw`` solves ``A X + X A^T = -(L Q + Q L^H)`` with ``Q = B S B^T``
+    (the frequency-limited Gramian of Gawronski and Juang).  Evaluated in the eigenbasis
+    of ``A`` (partial fractions: scalar logarithms, an elementwise Lyapunov solution) when
+    it is well conditioned, else with matrix logarithms (defective ``A``, e.g. critically
+    damped correction modes).
+    """
+    n = A.shape[0]
+    SD = S[:, None] * D.T                                    # S D^T
+    W = (w2 - w1) * (D @ SD)
+    if n == 0:
+        return W
+    lam, V = np.linalg.eig(A)
+    if np.linalg.cond(V) < 1e6:
+        Vi = np.linalg.inv(V)
+        Bt, Ct = Vi @ B, C @ V
+        ell = -1j * (np.log(1j * w2 - lam) - np.log(1j * w1 - lam))
+        Qt = (Bt * S) @ Bt.conj().T
+        Xt = -Qt * (ell[:, None] + ell.conj()[None, :]) / (lam[:, None] + lam.conj()[None, :])
+        Yt = ell[:, None] * (Bt @ SD)
+        CY = Ct @ Yt
+        return W + Ct @ Xt @ Ct.conj().T + CY + CY.conj().T
+    import warnings
+
+    from scipy.linalg import logm, solve_continuous_lyapunov
+
+    Id = np.eye(n)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        L = -1j * (logm(1j * w2 * Id - A) - logm(1j * w1 * Id - A))
+    if any("logm" in str(w.message) for w in caught):
+        warnings.warn("rms: the matrix logarithm of a defective A may be inaccurate "
+                      f"({caught[0].message})", RuntimeWarning, stacklevel=3)
+    Q = (B * S) @ B.T
+    X = solve_continuous_lyapunov(A.astype(complex), -(L @ Q + Q @ L.conj().T))
+    CY = C @ (L @ (B @ SD))
+    return W + C @ X @ C.T + CY + CY.conj().T
+
+
+def rms(sys, band, psd=1.0) -> np.ndarray:
+    """RMS of each output for independent band-limited white-noise inputs.
+
+    Every input ``j`` carries white noise of one-sided PSD ``psd_j`` (units^2/Hz) limited
+    to ``band`` (Hz); contributions of the inputs are summed:
+    ``rms_i^2 = sum_j psd_j int_{f1}^{f2} |H_ij(2 pi j f)|^2 df``.
+
+    The integral is evaluated exactly, without sampling frequencies (lightly damped peaks
+    cannot be missed):
+
+    - finite band: closed form (the frequency-limited Gramian, see Notes), evaluated by
+      partial fractions in the eigenbasis of ``A`` (matrix logarithms and a Lyapunov
+      solve when ``A`` is defective or its eigenvectors ill-conditioned);
+    - ``band=(0, inf)``: the usual Lyapunov solution ``A P + P A^T + B S B^T = 0``,
+      ``rms^2 = diag(C P C^T) / 2`` (one-sided PSD: half the H2 norm squared);
+      ``(f1, inf)`` subtracts the finite band ``(0, f1)`` from it.
+
+    Parameters
+    ----------
+    sys : control.StateSpace or model with ``to_statespace()``
+        Continuous-time, asymptotically stable system (models are taken with displacement
+        outputs).
+    band : (float, float)
+        ``(fmin, fmax)`` in Hz, ``0 <= fmin < fmax``; ``fmax`` may be ``numpy.inf``.
+    psd : float or array_like, shape (n_inputs,)
+        One-sided input PSD (units^2/Hz), the same for all inputs or one per input.
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        RMS of each output (output units).
+
+    Raises
+    ------
+    TypeError
+        ``sys`` is not a system.
+    ValueError
+        Discrete-time or unstable system, bad band or psd, or a feedthrough ``D`` with an
+        infinite band (infinite RMS).
+
+    Notes
+    -----
+    With ``R(w) = (j w I - A)^-1`` and ``Q = B S B^T``,
+    ``int_{w1}^{w2} R Q R^H dw = X`` solves ``A X + X A^T = -(L Q + Q L^H)`` where
+    ``L = int_{w1}^{w2} R dw = -j (log(j w2 I - A) - log(j w1 I - A))`` (W. Gawronski and
+    J.-N. Juang, 1990).  The cross terms with ``D`` use ``L`` too and ``D S D^T`` adds
+    ``(w2 - w1) D S D^T``.  Then ``rms^2 = diag(W) / (2 pi)``.
+
+    Examples
+    --------
+    >>> import control, numpy as np
+    >>> G = control.tf([1.0], [1.0, 0.2, 1.0])      # w0 = 1 rad/s, zeta = 0.1
+    >>> full = rms(G, (0, np.inf))[0]
+    >>> bool(np.isclose(full, np.sqrt(1 / (2 * 2 * 0.2))))
+    True
+    """
+    G = _as_ss(sys)
+    lo, hi = _band(band)
+    A, B, C, D = _mats(G)
+    S = _psd(psd, B.shape[1])
+    _check_stable(A)
+    w1, w2 = 2 * np.pi * lo, 2 * np.pi * hi
+    if np.isinf(hi):
+        if np.any(D[:, S > 0] != 0):
+            raise ValueError("sys has a feedthrough D: white noise over an infinite band gives "
+                             "an infinite RMS; give a finite band")
+        from scipy.linalg import solve_continuous_lyapunov
+
+        if A.shape[0]:
+            P = solve_continuous_lyapunov(A, -(B * S) @ B.T)
+            var = np.pi * np.diag(C @ P @ C.T)              # int_0^inf = pi diag(C P C^T)
+        else:
+            var = np.zeros(C.shape[0])
+        if w1 > 0:
+            var = var - np.real(np.diag(_band_integral(A, B, C, D, S, 0.0, w1)))
+    else:
+        var = np.real(np.diag(_band_integral(A, B, C, D, S, w1, w2)))
+    var = var / (2 * np.pi)
+    return np.sqrt(np.clip(var, 0.0, None))
+
+
+# ----------------------------------------------------------------------------------------
+# poles in a band
+# ----------------------------------------------------------------------------------------
+def modal_damping(sys, band=None):
+    """Natural frequencies (Hz) and damping ratios of the poles of ``sys`` in ``band``.
+
+    Parameters
+    ----------
+    sys : control.StateSpace or model with ``poles`` / ``to_statespace()``
+        The system.
+    band : (float, float), optional
+        Keep poles whose natural frequency ``|p| / 2 pi`` lies in ``band`` (Hz).
+
+    Returns
+    -------
+    frequency : ndarray
+        ``|p| / 2 pi`` in Hz, increasing (one entry per complex pair, Im p >= 0).
+    damping : ndarray
+        ``-Re p / |p|``.
+    """
+    if hasattr(sys, "poles") and not callable(sys.poles):
+        p = np.asarray(sys.poles)
+    else:
+        p = np.asarray(_as_ss(sys).poles())
+        p = p[p.imag >= -1e-12 * max(np.abs(p).max(initial=0.0), 1.0)]
+    f = np.abs(p) / (2 * np.pi)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.where(np.abs(p) > 0, -p.real / np.abs(p), 1.0)
+    if band is not None:
+        lo, hi = _band(band)
+        keep = (f >= lo) & (f <= hi)
+        f, z = f[keep], z[keep]
+    order = np.argsort(f)
+    return f[order], z[order]
+
+
+# ----------------------------------------------------------------------------------------
+# closing loops with names kept
+# ----------------------------------------------------------------------------------------
+def _default_names(labels, prefix: str) -> bool:
+    return all(lab == f"{prefix}[{i}]" for i, lab in enumerate(labels))
+
+
+def feedback(plant, controller, sign: float = -1.0, *, control_outputs: bool = False):
+    """Close ``controller`` around ``plant`` with ``control.interconnect``, names kept.
+
+    The controller reads plant outputs and drives plant inputs, matched by signal name:
+    its input names are plant output names, its output names plant input names (a
+    controller with python-control's default names ``u[i]``/``y[i]`` and the plant's full
+    dimensions is matched by position).  Each driven plant input becomes
+    ``u = w + sign * K y`` (default ``sign=-1``: ``u = w - K y``, python-control's
+    negative feedback), where ``w`` is the external input of the same name.
+
+    Parameters
+    ----------
+    plant : control.StateSpace or model with ``to_statespace()``
+        Plant with named inputs and outputs.
+    controller : control.StateSpace or TransferFunction
+        From (some) plant outputs to (some) plant inputs.
+    sign : float
+        Feedback sign, -1 (negative, default) or +1.
+    control_outputs : bool
+        Also output the controller signals, named ``"<input>_ctrl"``.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs: the plant's inputs (external forces ``w``); outputs: the plant's outputs
+        (and controller outputs); states: plant then controller states.
+
+    Raises
+    ------
+    ValueError
+        Controller signals that match no plant signal.
+
+    Examples
+    --------
+    >>> import control
+    >>> P = control.ss([[0, 1], [-1, -0.02]], [[0], [1]], [[1, 0]], 0,
+    ...                inputs=["f"], outputs=["x"])
+    >>> K = control.ss([], [], [], [[3.0]], inputs=["x"], outputs=["f"])
+    >>> cl = feedback(P, K)
+    >>> cl.input_labels, cl.output_labels
+    (['f'], ['x'])
+    """
+    import control
+
+    P = _as_ss(plant, "plant")
+    K = _as_ss(controller, "controller")
+    if sign not in (-1, 1, -1.0, 1.0):
+        raise ValueError(f"sign must be -1 or +1, got {sign!r}")
+    pin, pout = list(P.input_labels), list(P.output_labels)
+    kin, kout = list(K.input_labels), list(K.output_labels)
+    if (_default_names(kin, "u") and _default_names(kout, "y") and len(kin) == len(pout)
+            and len(kout) == len(pin)):
+        kin, kout = pout, pin
+    for lab in kin:
+        if lab not in pout:
+            raise ValueError(f"controller input {lab!r} is not a plant output {pout}")
+    for lab in kout:
+        if lab not in pin:
+            raise ValueError(f"controller output {lab!r} is not a plant input {pin}")
+    if len(set(kin)) != len(kin) or len(set(kout)) != len(kout):
+        raise ValueError("controller signal names must be unique")
+    # internal names: plant inputs/outputs may share labels (collocated pairs)
+    ui = [f"u{i}" for i in range(len(pin))]
+    yi = [f"y{i}" for i in range(len(pout))]
+    ki = [f"k{pin.index(lab)}" for lab in kout]
+    wi = [f"w{i}" for i in range(len(pin))]
+    Pn = control.ss(P.A, P.B, P.C, P.D, inputs=ui, outputs=yi, name="plant")
+    Kn = control.ss(K.A, K.B, K.C, K.D, inputs=[f"y{pout.index(lab)}" for lab in kin],
+                    outputs=ki, name="controller")
+    Dsum = np.hstack([np.eye(len(pin)), np.zeros((len(pin), len(kout)))])
+    for j, lab in enumerate(kout):
+        Dsum[pin.index(lab), len(pin) + j] = float(sign)
+    Sum = control.ss(np.zeros((0, 0)), np.zeros((0, Dsum.shape[1])),
+                     np.zeros((len(pin), 0)), Dsum, inputs=wi + ki, outputs=ui, name="sum")
+    outlist, outnames = list(yi), list(pout)
+    if control_outputs:
+        outlist += ki
+        outnames += [f"{lab}_ctrl" for lab in kout]
+    return control.interconnect([Pn, Kn, Sum], inplist=wi, outlist=outlist, inputs=pin,
+                                outputs=outnames, name="closed_loop")
+
+
+def rate_outputs(sys, outputs=None):
+    """Append the time derivative of outputs, ``y' = C A x + C B u`` (named ``<y>_dot``).
+
+    Parameters
+    ----------
+    sys : control.StateSpace or model with ``to_statespace()``
+        The system; the differentiated outputs must have no feedthrough (``D`` row zero).
+    outputs : sequence of str, optional
+        Output names to differentiate; default all.
+
+    Returns
+    -------
+    control.StateSpace
+        Same states and inputs; outputs followed by their rates.
+
+    Raises
+    ------
+    ValueError
+        Unknown output name, or an output with a feedthrough (its rate is not proper).
+    """
+    import control
+
+    G = _as_ss(sys)
+    A, B, C, D = _mats(G)
+    names = list(G.output_labels)
+    if outputs is None:
+        sel = list(range(len(names)))
+    else:
+        outs = [outputs] if isinstance(outputs, str) else list(outputs)
+        sel = []
+        for o in outs:
+            if o not in names:
+                raise ValueError(f"outputs: unknown output {o!r}, expected one of {names}")
+            sel.append(names.index(o))
+    if np.any(D[sel] != 0):
+        raise ValueError("outputs: a differentiated output has a feedthrough D, its rate is "
+                         "not proper")
+    Cs = C[sel]
+    return control.ss(A, B, np.vstack([C, Cs @ A]), np.vstack([D, Cs @ B]),
+                      inputs=list(G.input_labels),
+                      outputs=names + [f"{names[i]}_dot" for i in sel],
+                      states=list(G.state_labels))
+
+
+def strut_plant(model, b, name: str = "strut"):
+    """StateSpace of ``model`` with a strut channel added: input ``name`` (axial force
+    ``b``), outputs ``name`` (relative extension ``b^T q``) and ``name_dot`` (its rate).
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Model with ``shapes`` (hybrid or FE-derived).
+    b : array_like, shape (N,) or (N, 1)
+        Strut input shape on the DOFs of ``model.shapes`` (:meth:`FEModel.strut`).
+    name : str
+        Signal name of the strut channel.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``model.actuators + [name]``, outputs ``model.sensors + [name, name_dot]``
+        (displacement), ready for :func:`feedback` with :func:`strut_controller`.
+    """
+    from sdctrl.modal import NormalModeModel
+
+    if not isinstance(model, NormalModeModel):
+        raise TypeError(f"model must be a NormalModeModel, got {type(model).__name__}")
+    if model.shapes is None:
+        raise ValueError("model has no shapes: strut_plant needs a hybrid or FE-derived model")
+    N = model.shapes.shape[0]
+    bb = as_array(b, "b", ndim=(1, 2)).reshape(-1, 1) if np.ndim(b) == 1 else \
+        as_array(b, "b", ndim=(1, 2))
+    if bb.shape != (N, 1):
+        raise ValueError(f"b must have shape (N={N}, 1), got {bb.shape}")
+    changes = {"phib": np.hstack([model.phib, model.shapes.T @ bb]),
+               "cphi": np.vstack([model.cphi, bb.T @ model.shapes]),
+               "actuators": tuple(model.actuators) + (name,),
+               "sensors": tuple(model.sensors) + (name,)}
+    for f in fields(model):
+        if f.name in ("E", "F") and getattr(model, f.name) is not None:
+            X = getattr(model, f.name)
+            changes[f.name] = np.pad(X, ((0, 1), (0, 1)))
+    G = model.replace(**changes).to_statespace("displacement")
+    return rate_outputs(G, [signal_name(name)])
+
+
+def strut_controller(kp=0.0, kv=0.0, name: str = "strut"):
+    """Static D-strut controller ``F = kp y + kv y'`` (closed with negative feedback, 5.3).
+
+    Parameters
+    ----------
+    kp : float
+        Position gain (N/m).
+    kv : float
+        Velocity gain (N s/m).
+    name : str
+        Strut channel name used in :func:`strut_plant`.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``[name, name_dot]``, output ``[name]``; :func:`feedback` applies
+        ``F = -kp y - kv y'``.
+    """
+    import control
+
+    kp, kv = float(kp), float(kv)
+    if not (np.isfinite(kp) and np.isfinite(kv)):
+        raise ValueError("kp and kv must be finite gains")
+    n = signal_name(name)
+    return control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[kp, kv]],
+                      inputs=[n, f"{n}_dot"], outputs=[n], name="dstrut")
