@@ -7,7 +7,8 @@ model, controller or library moves them:
 >>> import control, sdctrl.testing as st
 >>> G = control.ss(control.tf([1.0], [1.0, 0.2, 1.0]), inputs=["f"], outputs=["x"])
 >>> snap = st.record_rms(G, band=(0.0, 1.0))
->>> st.assert_rms_matches(G, snap, rtol=1e-9)
+>>> st.assert_rms_matches(G, snap, rtol=1e-9).round(4)
+array([1.1179])
 
 In a test suite (the fixture is registered as the pytest plugin ``sdctrl``; without the
 entry point add ``pytest_plugins = ["sdctrl.testing"]`` to the root ``conftest.py``)::
