@@ -295,3 +295,68 @@ def test_bad_input_names_the_argument(case):
     with pytest.raises(ValueError, match="node_a"):
         strut_feedback(h, wrong, "N999", "N1", kv=1.0)
     assert np.array_equal(c, c0)
+
+
+# ----------------------------------------------------------------------------------------
+# damper placement on the hybrid model
+# ----------------------------------------------------------------------------------------
+def test_placement_study_on_the_hybrid_ranks_like_the_true_structure(case, capsys):
+    from scipy.stats import spearmanr
+
+    from sdctrl.closedloop import rms
+    from sdctrl.placement import placement_study
+
+    h, wrong, true = case["h"], case["wrong"], case["true"]
+    truss = [e for e in wrong.elements if max(int(e[0][1:]), int(e[1][1:])) <= 28]
+    outs = list(SENSORS[:6])
+    study = placement_study(h, wrong, (8, 60), kv=4e4, candidates=truss, outputs=outs,
+                            progress=False)
+    assert capsys.readouterr().err == ""                    # progress bar disabled
+    assert len(study.candidates) == len(truss) == 83 and not study.skipped
+    scores = [c.score for c in study.candidates]
+    assert scores == sorted(scores, reverse=True)
+    best = study.best
+    # numbers of a candidate recomputed independently
+    s = wrong.strut(*best.bar)
+    cl = h.with_feedback(s, s.T, kv=4e4)
+    r = rms(cl.to_statespace()[list(range(6)), :], (8, 60))
+    assert np.allclose(best.rms, r, rtol=1e-10)
+    assert np.allclose(best.reduction, 1 - r / study.rms_open, rtol=1e-10)
+    assert best.damping.size == study.damping.size == 12     # the 12 modes of the band
+    assert np.mean(best.damping) > np.mean(study.damping)
+    assert "| 1 | " + "-".join(best.bar) in study.table(3)
+    # the same study on the true structure (40 FE modes) picks the same bar, same order
+    ref = placement_study(true.normal_mode_model(list(SHAKERS), list(SENSORS), 40), true,
+                          (8, 60), kv=4e4, candidates=truss, outputs=outs, progress=True)
+    assert "D-strut placement" in capsys.readouterr().err    # tqdm progress bar
+    assert ref.best.bar == best.bar
+    a = {c.bar: c.score for c in study.candidates}
+    b = {c.bar: c.score for c in ref.candidates}
+    rho = spearmanr([a[k] for k in truss], [b[k] for k in truss]).correlation
+    assert rho > 0.95
+    # damping criterion and skipped candidates
+    st2 = placement_study(h, wrong, (8, 60), kv=4e4, candidates=truss[:5] + [("N1", "N99")],
+                          criterion="damping", progress=False)
+    assert [c.score for c in st2.candidates] == [float(np.min(c.damping))
+                                                 for c in st2.candidates]
+    assert st2.skipped[0][0] == ("N1", "N99") and "unknown node" in st2.skipped[0][1]
+
+
+def test_placement_study_bad_input(case):
+    from sdctrl.placement import placement_study
+
+    h, wrong = case["h"], case["wrong"]
+    with pytest.raises(TypeError, match="model must be"):
+        placement_study("h", wrong, (8, 60), kv=1.0)
+    with pytest.raises(TypeError, match="fe must be"):
+        placement_study(h, "fe", (8, 60), kv=1.0)
+    with pytest.raises(ValueError, match="band must be finite"):
+        placement_study(h, wrong, (8, np.inf), kv=1.0)
+    with pytest.raises(ValueError, match="criterion"):
+        placement_study(h, wrong, (8, 60), kv=1.0, criterion="cost")
+    with pytest.raises(ValueError, match="outputs: unknown output"):
+        placement_study(h, wrong, (8, 60), kv=1.0, outputs=["nope"])
+    with pytest.raises(ValueError, match="band: no mode"):
+        placement_study(h, wrong, (1000, 2000), kv=1.0)
+    with pytest.raises(ValueError, match="kv"):
+        placement_study(h, wrong, (8, 60), kv=np.nan)
