@@ -28,6 +28,8 @@ _EXPORTS = {
     "load_npz": "sdctrl.io",
     # identification (chapter III)
     "ComplexModeModel": "sdctrl.identify",
+    "initial_poles": "sdctrl.identify",
+    "identify": "sdctrl.identify",
     "normal_modes": "sdctrl.identify",
     # modal models
     "NormalModeModel": "sdctrl.modal",

@@ -3,11 +3,18 @@
 Public names are resolved lazily from the submodules:
 ``initial_poles`` (poles.py), ``identify`` (optimize.py), ``ComplexModeModel``
 (complex_modes.py), ``normal_modes`` (proper.py).
+
+``sdctrl.identify`` is both this package and the public function of the same name
+(API.md: ``sd.identify(frf, poles=None, band=None)``): calling the package calls
+:func:`sdctrl.identify.optimize.identify`, so ``sd.identify(frf)`` works whichever of the
+two the attribute resolves to.
 """
 
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 
 _EXPORTS = {
     "initial_poles": "sdctrl.identify.poles",
@@ -16,7 +23,7 @@ _EXPORTS = {
     "normal_modes": "sdctrl.identify.proper",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = ["ComplexModeModel", "identify", "initial_poles", "normal_modes"]
 
 
 def __getattr__(name: str):
@@ -24,3 +31,15 @@ def __getattr__(name: str):
     if module is None:
         raise AttributeError(f"module 'sdctrl.identify' has no attribute {name!r}")
     return getattr(importlib.import_module(module), name)
+
+
+class _CallablePackage(types.ModuleType):
+    """The package, callable as :func:`sdctrl.identify.optimize.identify`."""
+
+    def __call__(self, *args, **kwargs):
+        from sdctrl.identify.optimize import identify
+
+        return identify(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallablePackage

@@ -19,9 +19,10 @@ from sdctrl._validate import (
     check_labels,
     check_quantity,
     readonly,
+    signal_name,
 )
 
-__all__ = ["ComplexModeModel"]
+__all__ = ["ComplexModeModel", "frf_array", "to_statespace"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +157,173 @@ class ComplexModeModel:
                    collocated=self.collocated)
 
 
+    # --- minimality and scaling (3.2.2-3.2.3) -------------------------------------------
+    def singular_value_ratios(self) -> np.ndarray:
+        """Ratios ``sigma_k / sigma_1`` of the singular values of each residue matrix (3.22).
+
+        ``sigma_2 / sigma_1`` is the relative norm ``||R_j - R~_j|| / ||R_j||`` of what the
+        dyadic (minimal) residue (3.23) leaves out: small for a single mode, close to one
+        for a double mode.
+
+        Returns
+        -------
+        ndarray, shape (n, min(ns, na))
+            One row per mode (zeros for a zero residue).
+        """
+        sv = np.linalg.svd(self.residues, compute_uv=False)      # (n, r)
+        s1 = sv[:, :1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = np.where(s1 > 0, sv / np.where(s1 > 0, s1, 1.0), 0.0)
+        return out
+
+    def minimal(self, multiplicity=1) -> ComplexModeModel:
+        """Model with dyadic residues: the first dyads of each residue's SVD (3.22)-(3.23).
+
+        Parameters
+        ----------
+        multiplicity : int or array_like of int
+            Number of dyads kept per mode (1: minimal model of distinct modes; 2 for a
+            double mode, ...), a single value or one per mode.
+
+        Returns
+        -------
+        ComplexModeModel
+            Same poles, ``E``, ``F``; residues ``sum_k U_k sigma_k V_k^H`` truncated;
+            ``info["singular_value_ratios"]`` holds the ratios of the original residues.
+        """
+        mult = np.broadcast_to(np.asarray(multiplicity), (self.n,))
+        if mult.dtype.kind not in "iu" or np.any(mult < 1):
+            raise ValueError(f"multiplicity must be a positive integer (or one per mode), "
+                             f"got {multiplicity!r}")
+        U, sv, Vh = np.linalg.svd(self.residues, full_matrices=False)
+        R = np.empty_like(self.residues)
+        for j in range(self.n):
+            kk = int(min(mult[j], sv.shape[1]))
+            R[j] = (U[j, :, :kk] * sv[j, :kk]) @ Vh[j, :kk]
+        info = dict(self.info)
+        info["singular_value_ratios"] = self.singular_value_ratios()
+        info["multiplicity"] = mult.copy()
+        return self.replace(residues=R, info=info)
+
+    def scaled(self, collocated=None, return_info: bool = False, spread_tol: float = 0.1):
+        """Scaled complex modal observability and controllability (3.24)-(3.25).
+
+        Each residue's first dyad ``U_1 sigma_1 V_1^H`` (3.23) gives the directions of
+        ``c psi_j`` and ``psi_j^T b``; collocation (``c_l psi_j = psi_j^T b_l`` for a
+        collocated pair ``l``) fixes the scale, ``alpha_j^2 = (R~_j)_ll`` (3.24).  With
+        several collocated pairs the scale is the least-squares average: ``a^2``
+        minimising ``sum_l |a^2 U_sl - sigma_1 conj(V_al)|^2`` over the pairs; the relative
+        spread of the individual pair scalings is reported.
+
+        Parameters
+        ----------
+        collocated : sequence of (int or str, int or str), optional
+            Collocated (sensor, actuator) pairs; default ``self.collocated``.
+        return_info : bool
+            Also return a dict with ``"spread"`` (n,) (relative RMS deviation of the
+            single-pair scalings ``alpha^2`` from the average) and ``"alpha2"`` (n, npairs).
+        spread_tol : float
+            A warning is issued for modes whose spread exceeds this value.
+
+        Returns
+        -------
+        cpsi : ndarray, shape (ns, n)
+            Scaled modal observabilities ``c psi_j`` (displacement).
+        psib : ndarray, shape (n, na)
+            Scaled modal controllabilities ``psi_j^T b``; ``cpsi[:, j] psib[j]`` is the
+            dyadic residue ``R~_j`` and ``cpsi[s, j] = psib[j, a]`` for a collocated pair.
+        info : dict
+            Only with ``return_info=True``.
+        """
+        import warnings
+
+        pairs = self.collocated if collocated is None else check_collocated(
+            collocated, self.ns, self.na, "collocated", self.sensors, self.actuators)
+        if not pairs:
+            raise ValueError("collocated must name at least one (sensor, actuator) pair "
+                             "(the model has none)")
+        U, sv, Vh = np.linalg.svd(self.residues, full_matrices=False)
+        u = U[:, :, 0]                        # (n, ns)
+        v = Vh[:, 0, :] * sv[:, :1]           # (n, na) sigma_1 V_1^H
+        si = np.array([p[0] for p in pairs])
+        ai = np.array([p[1] for p in pairs])
+        us, va = u[:, si], v[:, ai]           # (n, npairs)
+        # a^2 u_s = v_a / 1 per pair  ->  least squares over pairs for z = a^2
+        z = np.sum(us.conj() * va, axis=1) / np.maximum(np.sum(np.abs(us) ** 2, axis=1),
+                                                        1e-300)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            single = np.where(np.abs(us) > 0, va / np.where(np.abs(us) > 0, us, 1), np.nan)
+        dev = np.abs(single - z[:, None])
+        spread = np.sqrt(np.nanmean(dev**2, axis=1)) / np.maximum(np.abs(z), 1e-300)
+        zero = np.abs(z) == 0
+        if np.any(zero):
+            warnings.warn("scaled: modes " + ", ".join(str(j) for j in np.flatnonzero(zero)) +
+                          " are not seen by any collocated pair; their scaling is undefined "
+                          "(NaN)", RuntimeWarning, stacklevel=2)
+        a = np.sqrt(z.astype(complex))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cpsi = (u * a[:, None]).T
+            psib = v / np.where(zero, np.nan, a)[:, None]
+        if len(pairs) > 1 and np.any(spread > spread_tol):
+            bad = np.flatnonzero(spread > spread_tol)
+            warnings.warn("scaled: collocated pairs disagree on the scaling of modes "
+                          + ", ".join(f"{j} ({spread[j]:.0%})" for j in bad),
+                          RuntimeWarning, stacklevel=2)
+        if return_info:
+            return cpsi, psib, {"spread": spread, "alpha2": single, "pairs": pairs}
+        return cpsi, psib
+
+    def residue_std(self, frf, n_averages: int = 1) -> np.ndarray:
+        """Standard deviation of the residues from the FRF coherence (3.58)-(3.60).
+
+        Parameters
+        ----------
+        frf : FRF
+            The measured FRF the model was fitted to, with coherence.
+        n_averages : int
+            Number of averages behind the coherence estimate (divides the variance).
+
+        Returns
+        -------
+        ndarray, shape (n, ns, na)
+            Standard deviation of each complex residue (direct part of 3.58).
+        """
+        from sdctrl.identify.variance import residue_std
+
+        return residue_std(self, frf, n_averages)
+
+    def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
+        """Real state-space model in the 2x2-block modal form (3.26)-(3.33).
+
+        Parameters
+        ----------
+        quantity : {"displacement", "velocity", "acceleration"}
+            Output quantity.
+        omega_c : float, optional
+            Cut-off (rad/s) of the critically damped correction filter realising the
+            improper terms for velocity/acceleration outputs; default ten times the
+            highest modal frequency.
+
+        Returns
+        -------
+        control.StateSpace
+            Real ``A``, ``B``, ``C``, ``D`` with inputs/outputs named after the
+            actuators/sensors (``.`` replaced by ``_``).  For displacement the model is
+            exact (``E`` as feedthrough, ``F/s^2`` by a double integrator per actuator).
+
+        Notes
+        -----
+        Each residue is split into dyads ``u_k (sigma_k v_k^H)`` (all non-negligible
+        ones, so a non-minimal residue is reproduced exactly) and each dyad becomes a
+        2-state block ``[[0, 1], [-w^2, -2 z w]]`` with ``C1, C2, B1, B2`` of (3.33)
+        (``a = 1`` in 3.32).  Velocity and acceleration multiply by ``s``, ``s^2``: the
+        strictly proper part stays exact, while ``E s^k`` and, for acceleration, the
+        ``s sum_j (R_j + R_j^*)`` term (zero for proper modes, 3.39) are realised through
+        ``w_c^2 / (s + w_c)^2`` (2.20), accurate to about ``2 w / w_c`` in the band.
+        """
+        return to_statespace(self, quantity, omega_c)
+
+
 def frf_array(poles, residues, E, F, s) -> np.ndarray:
     """Displacement FRF (ns x na per line) of (3.7) at Laplace points ``s`` (rad/s)."""
     g = 1.0 / (s[:, None] - poles[None, :])             # (nf, n)
@@ -165,3 +333,93 @@ def frf_array(poles, residues, E, F, s) -> np.ndarray:
     if F is not None and np.any(F):
         H = H + F[None] / (s[:, None, None] ** 2)
     return H
+
+
+def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
+                  omega_c: float | None = None):
+    """Real 2x2-block state-space form (3.26)-(3.33) of a complex-mode model.
+
+    See :meth:`ComplexModeModel.to_statespace` (parameters and notes).
+    """
+    import control
+
+    q = check_quantity(quantity, "quantity")
+    kq = QUANTITY_POWER[q]
+    ns, na = cm.ns, cm.na
+    blocks_A, Cs, Bs, states = [], [], [], []
+    U, sv, Vh = np.linalg.svd(cm.residues, full_matrices=False)
+    for j in range(cm.n):
+        lam = cm.poles[j]
+        w = abs(lam)
+        zw = -lam.real
+        wd = lam.imag
+        Aj = np.array([[0.0, 1.0], [-w**2, -2 * zw]])
+        smax = sv[j, 0] if sv.shape[1] else 0.0
+        for k in range(sv.shape[1]):
+            if sv[j, k] <= 1e-13 * smax or smax == 0:
+                continue
+            cpsi = U[j, :, k]
+            psib = sv[j, k] * Vh[j, k, :]
+            C1 = cpsi.real + (zw / wd) * cpsi.imag            # (3.33), a = 1
+            C2 = cpsi.imag / wd
+            B1 = 2 * psib.real
+            B2 = -2 * (zw * psib.real + wd * psib.imag)
+            blocks_A.append(Aj)
+            Cs.append(np.column_stack([C1, C2]))
+            Bs.append(np.vstack([B1, B2]))
+            states += [f"x{j}_{k}", f"dx{j}_{k}"]
+    from scipy.linalg import block_diag
+
+    A = block_diag(*blocks_A) if blocks_A else np.zeros((0, 0))
+    B = np.vstack(Bs) if Bs else np.zeros((0, na))
+    C = np.hstack(Cs) if Cs else np.zeros((ns, 0))
+    E, F = np.asarray(cm.E, float), np.asarray(cm.F, float)
+    hasF = bool(np.any(F))
+    hasE = bool(np.any(E))
+    P1 = P2 = None
+    if kq == 0:
+        D = E.copy()
+    elif kq == 1:
+        C, D = C @ A, C @ B
+        P1 = E if hasE else None
+    else:
+        D = C @ A @ B + F
+        P1 = C @ B
+        C = C @ A @ A
+        P2 = E if hasE else None
+        if np.abs(P1).max(initial=0) <= 1e-12 * max(np.abs(D).max(initial=0), 1e-300):
+            P1 = None
+    extra = []
+    if hasF and kq < 2:
+        # F/s^2 (displacement): double integrator per actuator; F/s (velocity): integrator
+        Ii, Zi = np.eye(na), np.zeros((na, na))
+        if kq == 0:
+            extra.append((np.block([[Zi, Ii], [Zi, Zi]]), np.vstack([Zi, Ii]),
+                          np.hstack([F, np.zeros((ns, na))]), np.zeros((ns, na)),
+                          [f"r{a}" for a in range(na)] + [f"dr{a}" for a in range(na)]))
+        else:
+            extra.append((Zi, Ii, F, np.zeros((ns, na)), [f"r{a}" for a in range(na)]))
+    if P1 is not None or P2 is not None:
+        if omega_c is None:
+            wc = 10.0 * (np.abs(cm.poles).max() if cm.n else 2 * np.pi * (cm.band or (1, 1))[1])
+        else:
+            wc = float(omega_c)
+            if not np.isfinite(wc) or wc <= 0:
+                raise ValueError(f"omega_c must be a positive cut-off in rad/s, got {omega_c}")
+        P1 = np.zeros((ns, na)) if P1 is None else P1
+        P2 = np.zeros((ns, na)) if P2 is None else P2
+        Ii, Zi = np.eye(na), np.zeros((na, na))
+        Ac = np.block([[Zi, Ii], [-wc**2 * Ii, -2 * wc * Ii]])
+        Bc = np.vstack([Zi, wc**2 * Ii])
+        Cc = np.hstack([-wc**2 * P2, P1 - 2 * wc * P2])
+        Dc = wc**2 * P2
+        extra.append((Ac, Bc, Cc, Dc, [f"zc{a}" for a in range(na)] +
+                      [f"dzc{a}" for a in range(na)]))
+    for Ae, Be, Ce, De, st in extra:
+        A = block_diag(A, Ae)
+        B = np.vstack([B, Be])
+        C = np.hstack([C, Ce])
+        D = D + De
+        states += st
+    return control.ss(A, B, C, D, inputs=[signal_name(a) for a in cm.actuators],
+                      outputs=[signal_name(s) for s in cm.sensors], states=states)

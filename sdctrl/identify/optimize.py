@@ -1,0 +1,728 @@
+"""Complex-mode identification: pole update and automatic pole selection (thesis 3.2.1).
+
+For fixed poles the residues solve the linear least-squares problem (3.16) (see
+:mod:`sdctrl.identify.residues`); the quadratic cost (3.11) is then a function of the
+poles only, ``J(lambda) = ||(I - P_Phi) Y||^2`` (3.18).  Two optimisers update the poles
+(parameters ``ln omega_j`` and ``ln zeta_j``, so steps are relative):
+
+``"gradient"``
+    The thesis algorithm: the gradient (3.19) ``dJ/dtheta = 2 eps^T (dPhi/dtheta) R`` gives,
+    for every parameter, whether it is over- or under-estimated; each parameter moves by
+    its own step in the descent direction and its step is halved every time it passes
+    over its optimum (sign change of its gradient component).
+``"varpro"`` (default)
+    Variable projection: the residues are eliminated inside the pole search and
+    ``scipy.optimize.least_squares`` (trust region, bounds) minimises ``J`` over the poles
+    with the Kaufman Jacobian ``-P_perp (dPhi/dtheta) R``.  The Jacobian is passed in a
+    compact form (Cholesky factor of ``[J r]^T [J r]``) of size ``2n+1``, so the cost of an
+    iteration does not grow with the number of frequency lines times sensors.
+
+Scale: the stacked data ``Y = [Re H; Im H]`` (2 nf x ns na) only enter the pole search
+through their dominant column space; ``Y`` is compressed once to ``Y V`` with ``V`` a
+real orthonormal basis (exact SVD for small sets, randomised range finder otherwise),
+so that the pole search costs the same for 10 or 10,000 sensors and residues stay real.
+The final residues are solved on the full data (cost linear in the number of sensors).
+
+With no poles given, :func:`identify` starts from :func:`~sdctrl.identify.initial_poles`
+and iterates: add a pole where the residual shows a missed mode, drop poles that do not
+converge (pushed to a bound), fit noise (half-power bandwidth below a fraction of the line
+spacing), are in-band fillers with very large damping or are not statistically
+significant, and try out-of-band poles just below and above the band (held outside by
+bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2`` cannot represent.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from sdctrl._validate import QUANTITY_POWER, as_array
+from sdctrl.identify.residues import (
+    LSQ,
+    basis,
+    basis_derivative,
+    coefficients_to_model,
+    n_per_pole,
+    pole_from_params,
+    stack,
+)
+
+__all__ = ["IdentificationWarning", "identify"]
+
+_ZMIN, _ZMAX = 1e-6, 0.6
+
+
+class IdentificationWarning(UserWarning):
+    """Numerical trouble during identification (ill-conditioning, no convergence, ...)."""
+
+
+# ---------------------------------------------------------------------------------------
+# data compression
+# ---------------------------------------------------------------------------------------
+def compress(Hm: np.ndarray, rank: int, seed=0, power: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Real orthonormal basis ``V`` (m, r) of the dominant row space of ``Y = [Re H; Im H]``.
+
+    Exact (SVD) when ``m`` is small, otherwise a randomised range finder with ``power``
+    subspace iterations (Halko, Martinsson & Tropp 2011); columns are ordered by
+    decreasing singular value, which are returned too.
+    """
+    nf, m = Hm.shape
+    rank = int(min(rank, m, 2 * nf))
+    if m <= max(3 * rank, 300):
+        Y = stack(Hm)
+        if 2 * nf >= m:
+            ev, W = np.linalg.eigh(Y.T @ Y)
+            order = np.argsort(ev)[::-1][:rank]
+            return W[:, order], np.sqrt(np.clip(ev[order], 0, None))
+        _, sv, Vt = np.linalg.svd(Y, full_matrices=False)
+        return Vt[:rank].T.copy(), sv[:rank]
+    rng = np.random.default_rng(seed)
+    ell = min(m, rank + 10)
+    Om = rng.standard_normal((nf, ell)) + 1j * rng.standard_normal((nf, ell))
+    Z = (Hm.conj().T @ Om).real                       # Y^T Omega, without stacking Y
+    V, _ = np.linalg.qr(Z)
+    for _ in range(power):
+        W = Hm @ V                                    # Y V as complex (nf, ell)
+        Z = Hm.real.T @ W.real + Hm.imag.T @ W.imag   # Y^T (Y V)
+        V, _ = np.linalg.qr(Z)
+    W = stack(Hm @ V)
+    _, sv, Vt = np.linalg.svd(W, full_matrices=False)
+    return (V @ Vt.T)[:, :rank], sv[:rank]
+
+
+# ---------------------------------------------------------------------------------------
+# pole search on (compressed) real data
+# ---------------------------------------------------------------------------------------
+class _Problem:
+    """Pole-search problem on real stacked data ``Y`` (2nf, k) at Laplace points ``s``."""
+
+    def __init__(self, Y, s, k, model, asymptotic, bar=None):
+        self.Y, self.s, self.k, self.model, self.asym = Y, s, k, model, asymptotic
+        self.normY2 = float(np.sum(Y**2))
+        self.npp = n_per_pole(model)
+        self.bar = bar
+        self.nfev = 0
+        self._cache = {}
+
+    def evaluate(self, x, jac=False):
+        key = (x.tobytes(), jac)
+        if key in self._cache:
+            return self._cache[key]
+        n = x.size // 2
+        w, z = np.exp(x[:n]), np.exp(x[n:])
+        lam = pole_from_params(w, z)
+        Phi = basis(lam, self.s, self.k, self.model, self.asym)
+        lsq = LSQ(Phi)
+        QtY = lsq.Q.T @ self.Y
+        r = self.Y - lsq.Q @ QtY
+        C = lsq.coefficients(QtY)
+        cost = float(np.sum(r**2))
+        out = {"cost": cost, "r": r, "C": C, "lsq": lsq, "lam": lam}
+        self.nfev += 1
+        if self.bar is not None:
+            self.bar.update(1)
+        # gradient (3.19) and Gauss-Newton matrix of the Kaufman Jacobian; parameter a
+        # (ln w_j for a = j, ln z_j for a = n + j) owns columns a*npp:(a+1)*npp of D
+        npp = self.npp
+        P = 2 * n
+        D = np.empty((2 * self.s.size, P * npp))
+        for j in range(n):
+            dW, dZ = basis_derivative(lam[j], w[j], z[j], self.s, self.k, self.model)
+            D[:, j * npp:(j + 1) * npp] = stack(dW)
+            D[:, (n + j) * npp:(n + j + 1) * npp] = stack(dZ)
+        crow = (np.arange(P) % n)[:, None] * npp + np.arange(npp)[None, :]   # (P, npp)
+        Cp = C[crow.ravel()]                                                # (P npp, k)
+        Dr = D.T @ r                                                        # (P npp, k)
+        g = -2.0 * np.sum((Dr * Cp).reshape(P, npp, -1), axis=(1, 2))       # dJ/dtheta (3.19)
+        out["grad"] = g
+        if jac:
+            Dp = D - lsq.Q @ (lsq.Q.T @ D)                 # P_perp dPhi/dtheta
+            G = (Dp.T @ Dp).reshape(P, npp, P, npp)
+            CC = (Cp @ Cp.T).reshape(P, npp, P, npp)
+            out["JtJ"] = np.einsum("aubv,aubv->ab", G, CC)
+        self._cache = {key: out}
+        return out
+
+
+def _compact(ev):
+    """Residual/Jacobian of size 2n+1 with the same J^T J, J^T f and ||f|| (Kaufman VP)."""
+    JtJ, Jtf, ff = ev["JtJ"], 0.5 * ev["grad"], ev["cost"]
+    P = JtJ.shape[0]
+    d = np.sqrt(np.maximum(np.diag(JtJ), 1e-300))
+    Gs = JtJ / d[:, None] / d[None, :] + 1e-13 * np.eye(P)
+    try:
+        Rs = np.linalg.cholesky(Gs).T                      # Rs^T Rs = Gs
+    except np.linalg.LinAlgError:
+        ew, EV = np.linalg.eigh(Gs)
+        Rs = np.sqrt(np.clip(ew, 1e-13, None))[:, None] * EV.T
+    R11 = Rs * d[None, :]                                 # R11^T R11 = JtJ
+    r12 = np.linalg.solve(R11.T, Jtf)
+    r22 = np.sqrt(max(ff - float(r12 @ r12), 0.0))
+    Jc = np.vstack([R11, np.zeros((1, P))])
+    fc = np.concatenate([r12, [r22]])
+    return fc, Jc
+
+
+def _varpro(prob, x0, lo, hi, max_iter, tol):
+    from scipy.optimize import least_squares
+
+    def fun(x):
+        return _compact(prob.evaluate(x, jac=True))[0]
+
+    def jac(x, *_):
+        return _compact(prob.evaluate(x, jac=True))[1]
+
+    res = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
+                        ftol=tol, xtol=tol, gtol=tol, max_nfev=max_iter)
+    return res.x, {"status": int(res.status), "nfev": int(res.nfev),
+                   "converged": bool(res.status > 0), "message": str(res.message)}
+
+
+def _gradient(prob, x0, lo, hi, max_iter, tol):
+    """Thesis pole update (3.19): each parameter moves by its own step against the sign of
+    its gradient component; the step is halved every time the parameter passes over its
+    optimum (sign change).  Steps that keep their sign grow by 1.2 (the Rprop rule), which
+    the thesis' fixed initial step lacks and which saves many iterations."""
+    n = x0.size // 2
+    x = x0.copy()
+    z0 = np.exp(x0[n:])
+    # initial steps: a quarter of the half-power bandwidth in frequency, 30% in damping
+    step = np.concatenate([np.clip(0.25 * z0, 1e-5, 0.02), np.full(n, 0.3)])
+    smax = step * 4
+    tol_x = np.concatenate([np.full(n, max(tol, 1e-13) * 100), np.full(n, tol * 1e4)])
+    ev = prob.evaluate(x)
+    prev = np.zeros_like(x)
+    it = 0
+    converged = False
+    for it in range(1, max_iter + 1):
+        sg = np.sign(ev["grad"])
+        flip = sg * prev < 0
+        same = sg * prev > 0
+        step[flip] *= 0.5                                  # passed over the optimum
+        step[same] = np.minimum(step[same] * 1.2, smax[same])
+        sg[flip] = 0.0                                     # iRprop-: wait one iteration
+        x = np.clip(x - sg * step, lo, hi)
+        ev = prob.evaluate(x)
+        prev = sg
+        if np.all(step < tol_x):
+            converged = True
+            break
+    return x, {"status": int(converged), "nfev": prob.nfev, "iterations": it,
+               "converged": converged,
+               "message": "steps below tolerance" if converged else "max_iter reached"}
+
+
+def _search(prob, w, z, side, fband, optimizer, max_iter, tol):
+    """Optimise poles (w rad/s, z) with bounds from ``side`` (0 in band, -1 below, +1 above)."""
+    n = w.size
+    fl = np.abs(prob.s) / (2 * np.pi)
+    dw_line = 2 * np.pi * float(np.median(np.diff(fl))) if fl.size > 1 else 0.0
+    if n == 0 or optimizer == "none":
+        return w.copy(), z.copy(), {"converged": True, "nfev": 0, "status": 1}
+    wlo, whi = 2 * np.pi * fband[0], 2 * np.pi * fband[1]
+    lo = np.empty(2 * n)
+    hi = np.empty(2 * n)
+    for j in range(n):
+        if side[j] == 0:
+            # in band: the band, and (thesis 3.2.1: "only allowing solutions near the
+            # guess") within +-max(5 half-power bandwidths, 4 lines) of the initial pole
+            dw = max(5 * z[j] * w[j], 4 * dw_line, 1e-3 * w[j])
+            lo[j], hi[j] = np.log(max(wlo, w[j] - dw)), np.log(min(whi, w[j] + dw))
+        elif side[j] < 0:
+            lo[j], hi[j] = np.log(wlo / 4), np.log(wlo)
+        else:
+            lo[j], hi[j] = np.log(whi), np.log(4 * whi)
+    lo[n:], hi[n:] = np.log(_ZMIN), np.log(_ZMAX)
+    inb = side == 0
+    # in-band damping within a factor 20 of the guess (at most 0.05 above it)
+    hi[n:][inb] = np.log(np.minimum(_ZMAX, np.maximum(20 * z[inb], 0.05)))
+    x0 = np.concatenate([np.log(w), np.log(z)])
+    eps = 1e-9 * (hi - lo)
+    x0 = np.clip(x0, lo + eps, hi - eps)
+    run = _varpro if optimizer == "varpro" else _gradient
+    x, info = run(prob, x0, lo, hi, max_iter, tol)
+    w, z = np.exp(x[:n]), np.exp(x[n:])
+    span = hi - lo
+    at_bound = (np.minimum(x[:n] - lo[:n], hi[:n] - x[:n]) < 1e-7 * span[:n]) | \
+               (np.minimum(x[n:] - lo[n:], hi[n:] - x[n:]) < 1e-7 * span[n:])
+    info["at_bound"] = at_bound
+    return w, z, info
+
+
+# ---------------------------------------------------------------------------------------
+# automatic pole selection
+# ---------------------------------------------------------------------------------------
+class _Auto:
+    """Add/remove loop of :func:`identify` when no poles are given."""
+
+    def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
+                 significance, warn):
+        self.prob, self.freq, self.fband = prob, freq, fband
+        self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
+        self.df = float(np.median(np.diff(freq)))
+        self.min_bw, self.zeta_max, self.signif = min_bandwidth, zeta_max, significance
+        self.log = []
+        self.warn = warn
+        self.tried = []
+        self.best = None
+
+    def fit(self, w, z, side):
+        w, z, info = _search(self.prob, w, z, side, self.fband, self.optimizer,
+                             self.max_iter, self.tol)
+        if not info.get("converged", True):
+            self.log.append(("not converged", info.get("message", "")))
+        x = np.concatenate([np.log(w), np.log(z)])
+        ev = self.prob.evaluate(x)
+        return w, z, ev, info
+
+    def _local_noise(self, r, fj, zj):
+        """Noise variance per real data entry from the residual near ``fj`` Hz."""
+        nf = self.freq.size
+        e = np.sum(r[:nf] ** 2 + r[nf:] ** 2, axis=1)
+        half = max(3 * zj * fj, 5 * self.df)
+        sel = np.flatnonzero(np.abs(self.freq - fj) <= half)
+        if sel.size < 10:
+            sel = np.argsort(np.abs(self.freq - fj))[:10]
+        return float(np.sum(e[sel]) / (2 * r.shape[1] * sel.size))
+
+    def significance(self, w, z, ev):
+        """Cost increase when each pole is removed, over its noise threshold (>1 keeps)."""
+        from scipy.stats import chi2
+
+        prob = self.prob
+        n = w.size
+        npp = prob.npp
+        k = prob.Y.shape[1]
+        r = ev["r"]
+        base = ev["cost"]
+        out = np.empty(n)
+        thr_dof = chi2.isf(1e-3 / max(self.freq.size, 1), df=npp * k) / (npp * k)
+        floor = 1e-11 * prob.normY2
+        for j in range(n):
+            keep = np.arange(n) != j
+            lam = pole_from_params(w[keep], z[keep])
+            Phi = basis(lam, prob.s, prob.k, prob.model, prob.asym)
+            lsq = LSQ(Phi)
+            QtY = lsq.Q.T @ prob.Y
+            dJ = max(prob.normY2 - float(np.sum(QtY**2)), 0.0) - base
+            fj = w[j] / (2 * np.pi)
+            sig2 = self._local_noise(r, fj, z[j])
+            thr = max(self.signif * thr_dof * npp * k * sig2, floor)
+            out[j] = dJ / thr
+        return out
+
+    def prune(self, w, z, side, ev, info):
+        f = w / (2 * np.pi)
+        reasons = self._rejected(w, z, side, info)
+        if not reasons:
+            sig = self.significance(w, z, ev)
+            weak = np.flatnonzero(sig < 1.0)
+            if weak.size:
+                j = weak[np.argmin(sig[weak])]
+                reasons[j] = f"not significant (cost change {sig[j]:.3g} x noise threshold)"
+        if not reasons:
+            return None
+        drop = np.array(sorted(reasons))
+        for j in drop:
+            self.log.append(("removed", float(f[j]), float(z[j]), reasons[j]))
+            self.tried.append(float(f[j]))
+        keep = np.ones(w.size, bool)
+        keep[drop] = False
+        return w[keep], z[keep], side[keep]
+
+    def missed(self, w, z, ev, max_add=3, chunk=256):
+        """Missed modes (frequency Hz, damping): a matched-filter scan of the residual.
+
+        For a trial pole at every line (two damping levels, half-power bandwidths of 2 and
+        8 lines) the cost decrease of adding it with fixed parameters,
+        ``||(G_p^T G_p)^-1/2 G_p^T r||^2`` with ``G_p`` its basis orthogonalised against the
+        current one, is compared with the significance threshold of :meth:`significance`
+        (noise level from the running median of the residual).  Local maxima above the
+        threshold are returned, strongest first.
+        """
+        from scipy.ndimage import median_filter
+        from scipy.signal import argrelmax
+        from scipy.stats import chi2
+
+        prob = self.prob
+        Q, r = ev["lsq"].Q, ev["r"]
+        nf, kc, npp = self.freq.size, r.shape[1], prob.npp
+        e = np.sum(r[:nf] ** 2 + r[nf:] ** 2, axis=1)
+        size = min(nf, 41)
+        sig2 = median_filter(e, size=size, mode="nearest") / (2 * kc)
+        thr_dof = chi2.isf(1e-3 / max(nf, 1), df=npp * kc)
+        thr = np.maximum(self.signif * thr_dof * sig2, 1e-11 * prob.normY2)
+        idx = np.arange(2, nf - 2)
+        best = np.zeros(nf)
+        bestz = np.zeros(nf)
+        for mult in (1.0, 4.0):
+            for i0 in range(0, idx.size, chunk):
+                ii = idx[i0:i0 + chunk]
+                fl = self.freq[ii]
+                zl = np.clip(mult * self.df / fl, _ZMIN * 10, 0.05)
+                lam = pole_from_params(2 * np.pi * fl, zl)
+                G = stack(basis(lam, prob.s, prob.k, prob.model, (False, False)))
+                G -= Q @ (Q.T @ G)
+                Gr = G.T @ r
+                if npp == 2:
+                    g0, g1 = G[:, 0::2], G[:, 1::2]
+                    a = np.sum(g0 * g0, axis=0)
+                    b = np.sum(g0 * g1, axis=0)
+                    c = np.sum(g1 * g1, axis=0)
+                    p0, p1 = Gr[0::2], Gr[1::2]
+                    num = (c * np.sum(p0 * p0, axis=1) - 2 * b * np.sum(p0 * p1, axis=1)
+                           + a * np.sum(p1 * p1, axis=1))
+                    dJ = num / np.maximum(a * c - b * b, 1e-300)
+                else:
+                    dJ = np.sum(Gr**2, axis=1) / np.maximum(np.sum(G * G, axis=0), 1e-300)
+                ratio = dJ / thr[ii]
+                upd = ratio > best[ii]
+                best[ii[upd]] = ratio[upd]
+                bestz[ii[upd]] = zl[upd]
+        peaks = argrelmax(best, order=2)[0]
+        peaks = peaks[best[peaks] > 1.0]
+        cand = []
+        for i in peaks[np.argsort(-best[peaks])]:
+            fi = float(self.freq[i])
+            if any(abs(fi - t) < 1.5 * self.df for t in self.tried):
+                continue
+            cand.append((fi, float(bestz[i])))
+            if len(cand) >= max_add:
+                break
+        return cand
+
+    def run(self, w, z, side, bar=None, rounds=20):
+        w, z, ev, info = self.fit(w, z, side)
+        self.best = (w, z, side, ev, info)
+        tried_side = {-1: False, 1: False}
+        for _ in range(rounds):
+            if bar is not None:
+                bar.set_postfix(poles=w.size, cost=f"{ev['cost'] / self.prob.normY2:.2e}")
+            pr = self.prune(w, z, side, ev, info)
+            if pr is not None:
+                w, z, side = pr
+                w, z, ev, info = self.fit(w, z, side)
+                self.best = (w, z, side, ev, info)
+                continue
+            changed = False
+            # missed in-band modes: add at residual peaks, keep the significant ones
+            cand = self.missed(w, z, ev)
+            if cand:
+                n0 = w.size
+                wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
+                zn = np.concatenate([z, [c[1] for c in cand]])
+                sn = np.concatenate([side, np.zeros(len(cand), int)])
+                w2, z2, ev2, info2 = self.fit(wn, zn, sn)
+                for fi, _ in cand:
+                    self.tried.append(float(fi))
+                ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
+                if ok.size:
+                    keep = np.concatenate([np.arange(n0), ok])
+                    for j in ok:
+                        self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]),
+                                         "residual peak"))
+                    if keep.size < w2.size:
+                        w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
+                    w, z, side, ev, info = w2, z2, sn[keep], ev2, info2
+                    self.best = (w, z, side, ev, info)
+                    changed = True
+            # modes just outside the band
+            for sd in (-1, 1):
+                if changed or tried_side[sd] or np.any(side == sd):
+                    continue
+                tried_side[sd] = True
+                f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
+                wn = np.concatenate([w, [2 * np.pi * f0]])
+                zn = np.concatenate([z, [0.01]])
+                sn = np.concatenate([side, [sd]])
+                w2, z2, ev2, info2 = self.fit(wn, zn, sn)
+                if self._accept(w2, z2, ev2, info2, np.array([w2.size - 1]), sn).size:
+                    self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
+                                     "out-of-band mode " + ("below" if sd < 0 else "above")))
+                    w, z, side, ev, info = w2, z2, sn, ev2, info2
+                    self.best = (w, z, side, ev, info)
+                    changed = True
+            if not changed:
+                break
+        else:
+            self.warn(f"automatic pole selection stopped after {rounds} rounds")
+        return self.best
+
+    def _accept(self, w, z, ev, info, new, side):
+        """Indices in ``new`` of poles that converged, are not rejected and are significant."""
+        bad = self._rejected(w, z, side, info)
+        sig = self.significance(w, z, ev)
+        ok = [j for j in new if sig[j] >= 1.0 and j not in bad]
+        return np.array(ok, int)
+
+    def _rejected(self, w, z, side, info):
+        """{index: reason} of poles at a bound, fitting noise or filling in."""
+        f = w / (2 * np.pi)
+        reasons = {}
+        edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
+                              (self.fband[1] - f < 0.5 * self.df))
+        for j in np.flatnonzero(info.get("at_bound", np.zeros(w.size, bool)) | edge):
+            reasons[j] = "did not converge (pushed to a bound)"
+        for j in np.flatnonzero(2 * z * f < self.min_bw * self.df):
+            reasons.setdefault(j, "noise fitting (half-power bandwidth below "
+                                  f"{self.min_bw:g} line spacing)")
+        for j in np.flatnonzero((side == 0) & (z > self.zeta_max)):
+            reasons.setdefault(j, f"filler (damping above {self.zeta_max:g})")
+        return reasons
+
+
+# ---------------------------------------------------------------------------------------
+# public function
+# ---------------------------------------------------------------------------------------
+def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: str = "varpro",
+             in_band=None, asymptotic: bool = True, compress_rank: int | None = None,
+             max_iter: int | None = None, tol: float = 1e-10, min_bandwidth: float = 0.5,
+             zeta_max: float = 0.1, significance: float = 2.0, seed: int | None = 0,
+             progress: bool = True):
+    """Identify a complex-mode model (3.7) from measured FRFs (thesis 3.2.1).
+
+    All sensors and actuators are fitted together with a common set of poles.  For
+    given poles the residues ``R_j`` and the real asymptotic terms ``E`` (residual
+    flexibility) and ``F/s^2`` (residual mass) solve the linear least-squares problem
+    (3.15)-(3.16) by QR; the poles are updated by the gradient (3.19) or by variable
+    projection (see the module notes).  The measured quantity is accounted for in the
+    basis, so residues, ``E`` and ``F`` describe the displacement/force response.
+
+    Parameters
+    ----------
+    frf : FRF
+        Measured FRFs (displacement, velocity or acceleration per unit force).
+    poles : array_like of complex, optional
+        Initial poles in rad/s (Im > 0, Re < 0).  When None, the poles are found
+        automatically: :func:`~sdctrl.identify.initial_poles` candidates (peaks of the
+        summed FRF and of the first singular values of ``H(f)``, damping from the
+        half-power width), then rounds of adding poles at residual peaks (missed modes),
+        removing poles that do not converge, fit noise, are fillers or are not
+        significant, and trying out-of-band poles just below and above the band.
+    band : (float, float), optional
+        Frequency band in Hz (default: all lines of ``frf``).
+    model : {"complex", "real"}
+        Complex-mode parametrisation (3.7), or the real-mode one (3.9) (proportional
+        damping, purely imaginary residues) for comparison.
+    optimizer : {"varpro", "gradient", "none"}
+        Pole update: variable projection with ``scipy.optimize.least_squares``, the
+        thesis sign-gradient with per-parameter step halving (3.19), or none (residues
+        of the given poles only).
+    in_band : array_like of bool, optional
+        For given ``poles``: which are in-band poles (default: those whose frequency lies
+        in the band).  Out-of-band poles are held outside the band by bounds.
+    asymptotic : bool
+        Fit the asymptotic terms ``E`` and ``F/s^2``.
+    compress_rank : int, optional
+        Rank of the real basis the stacked data are compressed to for the pole search
+        (default ``2 p + 20`` with ``p`` the number of basis functions, at least 40);
+        0 disables compression.
+    max_iter : int, optional
+        Maximum function evaluations (varpro, default 200) or iterations (gradient,
+        default 2000) per pole search.
+    tol : float
+        Relative tolerance of the pole search.
+    min_bandwidth : float
+        Poles whose half-power bandwidth ``2 zeta f`` is below this fraction of the line
+        spacing are rejected as noise fitting (automatic mode); such a peak is resolved
+        by fewer than two lines and cannot be told from noise.
+    zeta_max : float
+        In-band poles with a larger damping ratio are rejected as fillers (automatic mode).
+    significance : float
+        Multiplier of the noise threshold a pole's contribution must exceed to be kept
+        (automatic mode); the threshold is the 1e-3/nf quantile of the chi-square cost
+        change of a pole fitting pure noise, with the noise level estimated locally.
+    seed : int, optional
+        Seed of the randomised range finder (results are deterministic given a seed).
+    progress : bool
+        Show a tqdm progress bar.
+
+    Returns
+    -------
+    ComplexModeModel
+        Poles sorted by frequency, displacement residues, ``E``, ``F``, ``in_band``,
+        ``cost`` (relative FRF error ``||H_fit - H||_F / ||H||_F`` in the band) and
+        ``info`` (optimiser, evaluations, compression rank, added/removed poles,
+        warnings).
+
+    Raises
+    ------
+    ValueError
+        Empty band, fewer frequency lines than parameters, non-finite, unstable or
+        lower half-plane poles, NaN in the data, unknown options.
+
+    Examples
+    --------
+    >>> import numpy as np, sdctrl as sd
+    >>> f = np.linspace(5, 15, 400)
+    >>> lam = -0.01 * 2 * np.pi * 10 + 2j * np.pi * 10
+    >>> s = 2j * np.pi * f
+    >>> H = 1 / (s - lam) + 1 / (s - lam.conjugate())
+    >>> cm = sd.identify(sd.FRF(f, 1j * H), progress=False)
+    >>> bool(abs(cm.frequency[0] - 10.0005) < 1e-3)
+    True
+    """
+    from threadpoolctl import threadpool_limits
+    from tqdm.auto import tqdm
+
+    from sdctrl.frf import FRF, _check_band
+    from sdctrl.identify.complex_modes import ComplexModeModel
+    from sdctrl.identify.poles import peak_candidates
+
+    if not isinstance(frf, FRF):
+        raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
+    if model not in ("complex", "real"):
+        raise ValueError(f"model must be 'complex' or 'real', got {model!r}")
+    if optimizer not in ("varpro", "gradient", "none"):
+        raise ValueError(f"optimizer must be 'varpro', 'gradient' or 'none', got {optimizer!r}")
+    if max_iter is None:
+        max_iter = 200 if optimizer == "varpro" else 2000
+    for name, val in (("max_iter", max_iter),):
+        if isinstance(val, bool) or not isinstance(val, int | np.integer) or val < 1:
+            raise ValueError(f"{name} must be a positive integer, got {val!r}")
+    for name, val in (("tol", tol), ("min_bandwidth", min_bandwidth), ("zeta_max", zeta_max),
+                      ("significance", significance)):
+        if not (isinstance(val, int | float) and np.isfinite(val) and val > 0):
+            raise ValueError(f"{name} must be a positive number, got {val!r}")
+    if not np.all(np.isfinite(frf.H)):          # FRF validates, but keep the promise here too
+        raise ValueError("frf.H must contain only finite values (no NaN or inf)")
+    fband = (float(frf.freq[0]), float(frf.freq[-1]))
+    data = frf
+    if band is not None:
+        fband = _check_band(band, "band")
+        data = frf.band(*fband)
+    freq = data.freq
+    nf, ns, na = data.H.shape
+    m = ns * na
+    k = QUANTITY_POWER[data.quantity]
+    asym = (True, True) if asymptotic else (False, False)
+    n_asym = sum(asym)
+    npp = n_per_pole(model)
+    s = 2j * np.pi * freq
+    Hm = data.H.reshape(nf, m)
+
+    messages = []
+
+    def warn(msg):
+        messages.append(msg)
+        warnings.warn(msg, IdentificationWarning, stacklevel=3)
+
+    # --- initial poles ------------------------------------------------------------------
+    auto = poles is None
+    if auto:
+        f0, z0, _ = peak_candidates(freq, data.H, 4, 2.0, None) if nf >= 3 else ([], [], [])
+        w0 = 2 * np.pi * np.asarray(f0, float)
+        z0 = np.asarray(z0, float)
+        side = np.zeros(w0.size, int)
+        # peaks in data just outside the band, when the FRF has them
+        lo_extra = (frf.freq >= 0.75 * fband[0]) & (frf.freq < fband[0])
+        hi_extra = (frf.freq > fband[1]) & (frf.freq <= 1.25 * fband[1])
+        for sel, sd in ((lo_extra, -1), (hi_extra, 1)):
+            if np.count_nonzero(sel) >= 5:
+                fo, zo, so = peak_candidates(frf.freq[sel], frf.H[sel], 4, 2.0, None)
+                if fo.size:
+                    i = np.argmax(so)
+                    w0 = np.append(w0, 2 * np.pi * fo[i])
+                    z0 = np.append(z0, zo[i])
+                    side = np.append(side, sd)
+    else:
+        lam0 = as_array(poles, "poles", ndim=(0, 1), dtype=complex).reshape(-1)
+        if lam0.size == 0:
+            raise ValueError("poles must contain at least one pole (or be None for automatic "
+                             "selection)")
+        if np.any(lam0.imag <= 0):
+            raise ValueError("poles must lie in the upper half-plane (Im > 0), one per mode")
+        if np.any(lam0.real >= 0):
+            raise ValueError("poles must be stable (Re < 0): initial poles with Re >= 0 given")
+        w0 = np.abs(lam0)
+        z0 = np.clip(-lam0.real / w0, _ZMIN * 1.01, _ZMAX * 0.99)
+        f0 = w0 / (2 * np.pi)
+        if in_band is None:
+            ib = (f0 >= fband[0]) & (f0 <= fband[1])
+        else:
+            ib = np.array(in_band, dtype=bool).reshape(-1)
+            if ib.size != lam0.size:
+                raise ValueError(f"in_band must have one entry per pole ({lam0.size}), "
+                                 f"got {ib.size}")
+        side = np.where(ib, 0, np.where(f0 < fband[0], -1, 1))
+        bad = (side == 0) & ((f0 < fband[0]) | (f0 > fband[1]))
+        if np.any(bad):
+            raise ValueError("in_band: poles marked in band must have their frequency in the "
+                             f"band {fband}")
+        if np.any((side != 0) & (f0 >= fband[0]) & (f0 <= fband[1])):
+            raise ValueError("in_band: poles marked out of band must lie outside the band")
+    n_par = (npp + 2) * w0.size + n_asym
+    if 2 * nf < n_par or nf < 3:
+        raise ValueError(f"frf: the band has {nf} frequency lines, fewer than needed for the "
+                         f"{n_par} real parameters per channel of {w0.size} poles "
+                         f"(need 2 * n_lines >= parameters)")
+
+    normH2 = float(np.sum(Hm.real**2) + np.sum(Hm.imag**2))
+    if normH2 == 0:
+        raise ValueError("frf.H is identically zero in the band")
+
+    # --- compression ---------------------------------------------------------------------
+    p_guess = npp * (w0.size + 6) + n_asym
+    rank = max(2 * p_guess + 20, 40) if compress_rank is None else int(compress_rank)
+    if rank <= 0 or rank >= m:
+        V, _sv = None, None
+        Y = stack(Hm)
+        rank = m
+    else:
+        V, _sv = compress(Hm, rank, seed)
+        Y = stack(Hm @ V)
+    info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
+            "compress_rank": int(rank),
+            "lines": int(nf), "channels": int(m)}
+    if V is not None:
+        info["compression_residual"] = float(max(normH2 - float(np.sum(Y**2)), 0) / normH2)
+
+    bar = tqdm(desc="identify", disable=not progress, leave=False, unit="eval")
+    try:
+        with threadpool_limits(1):
+            prob = _Problem(Y, s, k, model, asym, bar)
+            if auto:
+                runner = _Auto(prob, freq, fband, optimizer, max_iter, tol, min_bandwidth,
+                               zeta_max, significance, warn)
+                try:
+                    w, z, side, _ev, sinfo = runner.run(w0, z0, side, bar)
+                except KeyboardInterrupt:
+                    if runner.best is None:
+                        raise
+                    w, z, side, _ev, sinfo = runner.best
+                    info["interrupted"] = True
+                    warn("interrupted: returning the last complete fit")
+                info["log"] = runner.log
+            else:
+                w, z, sinfo = _search(prob, w0, z0, side, fband, optimizer, max_iter, tol)
+                if np.any(sinfo.get("at_bound", [])):
+                    warn("poles at a bound of the search (frequency or damping limit): "
+                         + ", ".join(f"{x:.4g} Hz" for x in
+                                     (w[sinfo['at_bound']] / (2 * np.pi))))
+            info["search"] = {kk: vv for kk, vv in sinfo.items() if kk != "at_bound"}
+            info["nfev"] = prob.nfev
+            if not sinfo.get("converged", True):
+                warn(f"pole search did not converge: {sinfo.get('message', '')}")
+    finally:
+        bar.close()
+
+    # --- final residues on the full data ---------------------------------------------------
+    order = np.argsort(w)
+    w, z, side = w[order], z[order], side[order]
+    lam = pole_from_params(w, z)
+    Phi = basis(lam, s, k, model, asym)
+    lsq = LSQ(Phi)
+    QtY = lsq.project(Hm)
+    C = lsq.coefficients(QtY)
+    cost2 = max(normH2 - float(np.sum(QtY**2)), 0.0)
+    if lsq.rcond < 1e-12:
+        warn(f"ill-conditioned pole basis (reciprocal condition {lsq.rcond:.2e}): poles too "
+             "close together or too many asymptotic terms")
+    info["rcond"] = lsq.rcond
+    R, E, F = coefficients_to_model(C, lam, model, asym, ns, na)
+    info["warnings"] = messages
+    return ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
+                            cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
+                            actuators=data.actuators, collocated=data.collocated, band=fband,
+                            info=info)
