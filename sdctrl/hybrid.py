@@ -31,8 +31,8 @@ import scipy.sparse as sp
 from sdctrl._validate import as_array
 from sdctrl.modal import NormalModeModel
 
-__all__ = ["HybridModel", "expand", "hybrid", "modify", "pair_modes", "strut_feedback",
-           "with_io"]
+__all__ = ["HybridModel", "expand", "hybrid", "modify", "pair_modes", "pairing_report",
+           "strut_feedback", "with_io"]
 
 #: MAC below which a FE/test pair is reported as poor (with a warning)
 MAC_POOR = 0.8
@@ -480,6 +480,33 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
             "dropped_E": nm.E is not None and bool(np.any(nm.E))}
     return HybridModel(np.diag(w2), 0.5 * (Gamma + Gamma.T), cphi, phib, sensors=nm.sensors,
                        actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info)
+
+
+def pairing_report(model) -> str:
+    """Markdown table of the FE/test mode pairing of a hybrid model (from its ``info``).
+
+    Parameters
+    ----------
+    model : HybridModel
+        A model returned by :func:`hybrid`.
+
+    Returns
+    -------
+    str
+        One row per measured mode: test and FE frequencies (Hz), their ratio and the MAC,
+        poor pairs flagged.
+    """
+    p = model.info.get("pairing") if hasattr(model, "info") else None
+    if p is None:
+        raise ValueError("model has no pairing information (not built by hybrid)")
+    poor = set(np.asarray(model.info.get("poor_pairs", ())).tolist())
+    rows = ["| test mode | test Hz | FE mode | FE Hz | FE/test | MAC |",
+            "|---:|---:|---:|---:|---:|---:|"]
+    for j in range(p["test_mode"].size):
+        flag = " (poor)" if j in poor else ""
+        rows.append(f"| {j} | {p['test_hz'][j]:.3f} | {p['fe_mode'][j]} | {p['fe_hz'][j]:.3f} "
+                    f"| {p['fe_hz'][j] / p['test_hz'][j]:.4f} | {p['mac'][j]:.3f}{flag} |")
+    return "\n".join(rows)
 
 
 # ----------------------------------------------------------------------------------------

@@ -10,7 +10,15 @@ import pytest
 import scipy.sparse as sp
 
 import sdctrl as sd
-from sdctrl.hybrid import HybridModel, expand, hybrid, modify, strut_feedback, with_io
+from sdctrl.hybrid import (
+    HybridModel,
+    expand,
+    hybrid,
+    modify,
+    pairing_report,
+    strut_feedback,
+    with_io,
+)
 from sdctrl.testbed import SENSORS, SHAKERS
 from sdctrl.update.costs import logls
 
@@ -141,6 +149,9 @@ def test_appended_modes_damping_pairing_and_orthogonality(case):
     Mx = S.T @ (wrong.M @ S)
     assert np.abs(Mx[np.ix_(fe_modes, meas)]).max() < 1e-10
     assert h.expanded is h.shapes and h.dofs == wrong.dofs
+    table = pairing_report(h).splitlines()
+    assert len(table) == 2 + nm.n and "(poor)" not in "".join(table)
+    assert table[2].startswith("| 0 | 9.518 | 6 |")
 
 
 def test_static_correction_modes_are_critically_damped(case):
@@ -257,6 +268,7 @@ def test_poor_pairing_warns_and_is_reported(case):
     with pytest.warns(UserWarning, match="poor FE/test mode pairing"):
         h = hybrid(case["wrong"], bad, list(SENSORS), list(SHAKERS))
     assert h.info["poor_pairs"].size > 0
+    assert "(poor)" in pairing_report(h)
     assert np.all(h.info["pairing"]["mac"][h.info["poor_pairs"]] < 0.8)
 
 
