@@ -391,14 +391,18 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
             P1 = None
     extra = []
     if hasF and kq < 2:
-        # F/s^2 (displacement): double integrator per actuator; F/s (velocity): integrator
-        Ii, Zi = np.eye(na), np.zeros((na, na))
+        # F/s^2 (displacement): double integrators; F/s (velocity): integrators; one per
+        # rank component of F = U S V^T (at most min(ns, na) of them)
+        Uf, Sf, Vft = np.linalg.svd(F, full_matrices=False)
+        rf = int(np.sum(Sf > 1e-14 * Sf[0]))
+        Cf, Bf = Uf[:, :rf] * Sf[:rf], Vft[:rf]
+        Ii, Zi = np.eye(rf), np.zeros((rf, rf))
         if kq == 0:
-            extra.append((np.block([[Zi, Ii], [Zi, Zi]]), np.vstack([Zi, Ii]),
-                          np.hstack([F, np.zeros((ns, na))]), np.zeros((ns, na)),
-                          [f"r{a}" for a in range(na)] + [f"dr{a}" for a in range(na)]))
+            extra.append((np.block([[Zi, Ii], [Zi, Zi]]), np.vstack([np.zeros((rf, na)), Bf]),
+                          np.hstack([Cf, np.zeros((ns, rf))]), np.zeros((ns, na)),
+                          [f"r{a}" for a in range(rf)] + [f"dr{a}" for a in range(rf)]))
         else:
-            extra.append((Zi, Ii, F, np.zeros((ns, na)), [f"r{a}" for a in range(na)]))
+            extra.append((Zi, Bf, Cf, np.zeros((ns, na)), [f"r{a}" for a in range(rf)]))
     if P1 is not None or P2 is not None:
         if omega_c is None:
             wc = 10.0 * (np.abs(cm.poles).max() if cm.n else 2 * np.pi * (cm.band or (1, 1))[1])
