@@ -19,8 +19,6 @@ and D-strut loops (5.3)-(5.4) (:func:`strut_feedback`).
 
 from __future__ import annotations
 
-import sys
-import types
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
@@ -28,6 +26,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 import scipy.sparse as sp
 
+from sdctrl._callable import make_callable
 from sdctrl._validate import as_array
 from sdctrl.modal import NormalModeModel
 
@@ -674,14 +673,4 @@ def strut_feedback(model, fe, node_a: str, node_b: str, kp=0.0, kv=0.0) -> Hybri
     return _as_hybrid(model).with_feedback(s, s.T, kp=kp, kv=kv)
 
 
-class _CallableModule(types.ModuleType):
-    """``sdctrl.hybrid`` names both this module and the function :func:`hybrid` (the
-    package lists the module as a submodule, and importing it binds the module to the
-    package attribute), so the module itself is callable: ``sd.hybrid(fe, nm, c)`` works
-    whichever object the name resolves to."""
-
-    def __call__(self, *args, **kwargs):
-        return hybrid(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
+make_callable(__name__)

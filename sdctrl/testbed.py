@@ -10,12 +10,11 @@ damping, a mostly local mode, and several inputs with collocated sensors.  See
 
 from __future__ import annotations
 
-import sys
-import types
 from functools import lru_cache
 
 import numpy as np
 
+from sdctrl._callable import make_callable
 from sdctrl._validate import check_quantity
 
 __all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "testbed", "testbed_frf"]
@@ -271,13 +270,4 @@ def testbed_frf(quantity: str = "acceleration", band=TESTBED_BAND, n: int = 1000
     return FRF(freq, H, quantity=q, sensors=SENSORS, actuators=SHAKERS, collocated=col)
 
 
-class _CallableModule(types.ModuleType):
-    """``sdctrl.testbed`` names both this module and the function :func:`testbed`; the
-    import system binds the module to the package attribute, so the module itself is made
-    callable and ``sd.testbed()`` works whichever object the name resolves to."""
-
-    def __call__(self, *args, **kwargs):
-        return testbed(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
+make_callable(__name__)
