@@ -36,6 +36,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from sdctrl._validate import QUANTITY_POWER, as_array
 from sdctrl.identify.residues import (
@@ -98,8 +99,10 @@ class _Problem:
     """Pole-search problem on real stacked data ``Y`` (2nf, k) at Laplace points ``s``."""
 
     def __init__(self, Y, s, k, model, asymptotic, bar=None):
-        self.Y, self.s, self.k, self.model, self.asym = Y, s, k, model, asymptotic
-        self.normY2 = float(np.sum(Y**2))
+        # unit-norm data: the cost is relative, so optimiser tolerances are scale-free
+        self.Y = Y / np.sqrt(max(float(np.sum(Y**2)), 1e-300))
+        self.s, self.k, self.model, self.asym = s, k, model, asymptotic
+        self.normY2 = float(np.sum(self.Y**2))
         self.npp = n_per_pole(model)
         self.bar = bar
         self.nfev = 0
@@ -142,6 +145,28 @@ class _Problem:
             CC = (Cp @ Cp.T).reshape(P, npp, P, npp)
             out["JtJ"] = np.einsum("aubv,aubv->ab", G, CC)
         self._cache = {key: out}
+        return out
+
+
+class _SubProblem:
+    """The pole search restricted to some parameters, the others held at ``x_full``."""
+
+    def __init__(self, prob, x_full, free):
+        self.prob, self.x_full, self.free = prob, x_full, free
+        self.npp = prob.npp
+
+    @property
+    def nfev(self):
+        return self.prob.nfev
+
+    def evaluate(self, xs, jac=False):
+        x = self.x_full.copy()
+        x[self.free] = xs
+        ev = self.prob.evaluate(x, jac)
+        out = dict(ev)
+        out["grad"] = ev["grad"][self.free]
+        if jac:
+            out["JtJ"] = ev["JtJ"][np.ix_(self.free, self.free)]
         return out
 
 
@@ -202,9 +227,13 @@ def _gradient(prob, x0, lo, hi, max_iter, tol):
         step[flip] *= 0.5                                  # passed over the optimum
         step[same] = np.minimum(step[same] * 1.2, smax[same])
         sg[flip] = 0.0                                     # iRprop-: wait one iteration
-        x = np.clip(x - sg * step, lo, hi)
-        ev = prob.evaluate(x)
-        prev = sg
+        xn = np.clip(x - sg * step, lo, hi)
+        evn = prob.evaluate(xn)
+        if evn["cost"] <= ev["cost"]:
+            x, ev, prev = xn, evn, sg
+        else:                                              # overshoot: shorter steps
+            step *= 0.5
+            prev = np.zeros_like(x)
         if np.all(step < tol_x):
             converged = True
             break
@@ -213,8 +242,11 @@ def _gradient(prob, x0, lo, hi, max_iter, tol):
                "message": "steps below tolerance" if converged else "max_iter reached"}
 
 
-def _search(prob, w, z, side, fband, optimizer, max_iter, tol):
-    """Optimise poles (w rad/s, z) with bounds from ``side`` (0 in band, -1 below, +1 above)."""
+def _search(prob, w, z, side, fband, optimizer, max_iter, tol, only=None):
+    """Optimise poles (w rad/s, z) with bounds from ``side`` (0 in band, -1 below, +1 above).
+
+    ``only`` (indices of poles) restricts the search to those poles, the others fixed.
+    """
     n = w.size
     fl = np.abs(prob.s) / (2 * np.pi)
     dw_line = 2 * np.pi * float(np.median(np.diff(fl))) if fl.size > 1 else 0.0
@@ -241,7 +273,14 @@ def _search(prob, w, z, side, fband, optimizer, max_iter, tol):
     eps = 1e-9 * (hi - lo)
     x0 = np.clip(x0, lo + eps, hi - eps)
     run = _varpro if optimizer == "varpro" else _gradient
-    x, info = run(prob, x0, lo, hi, max_iter, tol)
+    if only is None:
+        x, info = run(prob, x0, lo, hi, max_iter, tol)
+    else:
+        only = np.asarray(only, int)
+        free = np.concatenate([only, n + only])
+        xs, info = run(_SubProblem(prob, x0, free), x0[free], lo[free], hi[free], max_iter, tol)
+        x = x0.copy()
+        x[free] = xs
     w, z = np.exp(x[:n]), np.exp(x[n:])
     span = hi - lo
     at_bound = (np.minimum(x[:n] - lo[:n], hi[:n] - x[:n]) < 1e-7 * span[:n]) | \
@@ -267,9 +306,9 @@ class _Auto:
         self.tried = []
         self.best = None
 
-    def fit(self, w, z, side):
+    def fit(self, w, z, side, only=None):
         w, z, info = _search(self.prob, w, z, side, self.fband, self.optimizer,
-                             self.max_iter, self.tol)
+                             self.max_iter, self.tol, only)
         if not info.get("converged", True):
             self.log.append(("not converged", info.get("message", "")))
         x = np.concatenate([np.log(w), np.log(z)])
@@ -331,11 +370,11 @@ class _Auto:
         keep[drop] = False
         return w[keep], z[keep], side[keep]
 
-    def missed(self, w, z, ev, max_add=3, chunk=256):
+    def missed(self, w, z, ev, max_add=6, chunk=256):
         """Missed modes (frequency Hz, damping): a matched-filter scan of the residual.
 
-        For a trial pole at every line (two damping levels, half-power bandwidths of 2 and
-        8 lines) the cost decrease of adding it with fixed parameters,
+        For a trial pole at every line (three damping levels, half-power bandwidths of 2, 8
+        and 32 lines) the cost decrease of adding it with fixed parameters,
         ``||(G_p^T G_p)^-1/2 G_p^T r||^2`` with ``G_p`` its basis orthogonalised against the
         current one, is compared with the significance threshold of :meth:`significance`
         (noise level from the running median of the residual).  Local maxima above the
@@ -349,14 +388,15 @@ class _Auto:
         Q, r = ev["lsq"].Q, ev["r"]
         nf, kc, npp = self.freq.size, r.shape[1], prob.npp
         e = np.sum(r[:nf] ** 2 + r[nf:] ** 2, axis=1)
-        size = min(nf, 41)
+        size = min(nf, max(41, nf // 20))
         sig2 = median_filter(e, size=size, mode="nearest") / (2 * kc)
         thr_dof = chi2.isf(1e-3 / max(nf, 1), df=npp * kc)
         thr = np.maximum(self.signif * thr_dof * sig2, 1e-11 * prob.normY2)
-        idx = np.arange(2, nf - 2)
-        best = np.zeros(nf)
-        bestz = np.zeros(nf)
-        for mult in (1.0, 4.0):
+        found = []                                # (ratio, line index, damping)
+        for mult, stride in ((1.0, 1), (4.0, 2), (16.0, 4)):
+            idx = np.arange(4, nf - 4, stride)    # grid finer than a quarter bandwidth
+            level = np.zeros(idx.size)
+            zlev = np.zeros(idx.size)
             for i0 in range(0, idx.size, chunk):
                 ii = idx[i0:i0 + chunk]
                 fl = self.freq[ii]
@@ -376,18 +416,20 @@ class _Auto:
                     dJ = num / np.maximum(a * c - b * b, 1e-300)
                 else:
                     dJ = np.sum(Gr**2, axis=1) / np.maximum(np.sum(G * G, axis=0), 1e-300)
-                ratio = dJ / thr[ii]
-                upd = ratio > best[ii]
-                best[ii[upd]] = ratio[upd]
-                bestz[ii[upd]] = zl[upd]
-        peaks = argrelmax(best, order=2)[0]
-        peaks = peaks[best[peaks] > 1.0]
+                level[i0:i0 + ii.size] = dJ / thr[ii]
+                zlev[i0:i0 + ii.size] = zl
+            pk = argrelmax(level, order=2)[0]
+            found += [(level[i], idx[i], zlev[i]) for i in pk if level[i] > 1.0]
+        # strongest first; one candidate per half-power band (non-maximum suppression)
+        found.sort(key=lambda c: -c[0])
         cand = []
-        for i in peaks[np.argsort(-best[peaks])]:
+        for _, i, zi in found:
             fi = float(self.freq[i])
-            if any(abs(fi - t) < 1.5 * self.df for t in self.tried):
+            excl = [(t, 1.5 * self.df) for t in self.tried] + \
+                   [(c[0], max(2 * c[1] * c[0], 2 * self.df)) for c in cand]
+            if any(abs(fi - t) < d for t, d in excl):
                 continue
-            cand.append((fi, float(bestz[i])))
+            cand.append((fi, float(zi)))
             if len(cand) >= max_add:
                 break
         return cand
@@ -396,6 +438,7 @@ class _Auto:
         w, z, ev, info = self.fit(w, z, side)
         self.best = (w, z, side, ev, info)
         tried_side = {-1: False, 1: False}
+        failed_adds = 0
         for _ in range(rounds):
             if bar is not None:
                 bar.set_postfix(poles=w.size, cost=f"{ev['cost'] / self.prob.normY2:.2e}")
@@ -405,46 +448,57 @@ class _Auto:
                 w, z, ev, info = self.fit(w, z, side)
                 self.best = (w, z, side, ev, info)
                 continue
+            # modes just outside the band (their tails distort the in-band residual)
             changed = False
-            # missed in-band modes: add at residual peaks, keep the significant ones
-            cand = self.missed(w, z, ev)
-            if cand:
-                n0 = w.size
-                wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
-                zn = np.concatenate([z, [c[1] for c in cand]])
-                sn = np.concatenate([side, np.zeros(len(cand), int)])
-                w2, z2, ev2, info2 = self.fit(wn, zn, sn)
-                for fi, _ in cand:
-                    self.tried.append(float(fi))
-                ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
-                if ok.size:
-                    keep = np.concatenate([np.arange(n0), ok])
-                    for j in ok:
-                        self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]),
-                                         "residual peak"))
-                    if keep.size < w2.size:
-                        w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
-                    w, z, side, ev, info = w2, z2, sn[keep], ev2, info2
-                    self.best = (w, z, side, ev, info)
-                    changed = True
-            # modes just outside the band
             for sd in (-1, 1):
-                if changed or tried_side[sd] or np.any(side == sd):
+                if tried_side[sd] or np.any(side == sd):
                     continue
                 tried_side[sd] = True
                 f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
                 wn = np.concatenate([w, [2 * np.pi * f0]])
                 zn = np.concatenate([z, [0.01]])
                 sn = np.concatenate([side, [sd]])
-                w2, z2, ev2, info2 = self.fit(wn, zn, sn)
-                if self._accept(w2, z2, ev2, info2, np.array([w2.size - 1]), sn).size:
+                new = np.array([wn.size - 1])
+                w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=new)
+                if not self._accept(w2, z2, ev2, info2, new, sn).size:
+                    continue
+                w2, z2, ev2, info2 = self.fit(w2, z2, sn)
+                if self._accept(w2, z2, ev2, info2, new, sn).size:
                     self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
                                      "out-of-band mode " + ("below" if sd < 0 else "above")))
                     w, z, side, ev, info = w2, z2, sn, ev2, info2
                     self.best = (w, z, side, ev, info)
                     changed = True
-            if not changed:
+            if changed:
+                failed_adds = 0
+                continue
+            # missed in-band modes: add at residual peaks, keep the significant ones
+            if failed_adds >= 2:
                 break
+            with threadpool_limits(None):         # large products: all cores
+                cand = self.missed(w, z, ev)
+            if not cand:
+                break
+            n0 = w.size
+            wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
+            zn = np.concatenate([z, [c[1] for c in cand]])
+            sn = np.concatenate([side, np.zeros(len(cand), int)])
+            # first the new poles alone (the others fixed), then all of them
+            w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
+            for fi, _ in cand:
+                self.tried.append(float(fi))
+            ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
+            if not ok.size:
+                failed_adds += 1                   # rejected ones are in self.tried
+                continue
+            failed_adds = 0
+            keep = np.concatenate([np.arange(n0), ok])
+            w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
+            for j in range(n0, keep.size):
+                self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]),
+                                 "residual peak"))
+            w, z, side, ev, info = w2, z2, sn[keep], ev2, info2
+            self.best = (w, z, side, ev, info)
         else:
             self.warn(f"automatic pole selection stopped after {rounds} rounds")
         return self.best
@@ -516,7 +570,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         Fit the asymptotic terms ``E`` and ``F/s^2``.
     compress_rank : int, optional
         Rank of the real basis the stacked data are compressed to for the pole search
-        (default ``2 p + 20`` with ``p`` the number of basis functions, at least 40);
+        (default ``p + 16`` with ``p`` the number of basis functions of the initial
+        poles plus six, at least 40);
         0 disables compression.
     max_iter : int, optional
         Maximum function evaluations (varpro, default 200) or iterations (gradient,
@@ -664,7 +719,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
 
     # --- compression ---------------------------------------------------------------------
     p_guess = npp * (w0.size + 6) + n_asym
-    rank = max(2 * p_guess + 20, 40) if compress_rank is None else int(compress_rank)
+    rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
     if rank <= 0 or rank >= m:
         V, _sv = None, None
         Y = stack(Hm)

@@ -55,19 +55,23 @@ def basis(lam: np.ndarray, s: np.ndarray, k: int, model: str = "complex",
     Columns: two per pole (``g1``, ``g2``) for ``model="complex"``, one per pole for
     ``model="real"``, then ``1`` (E) and ``1/s^2`` (F) when ``asymptotic`` asks for them.
     """
-    cols = []
-    for lj in lam:
-        a = 1.0 / (s - lj)
-        b = 1.0 / (s - np.conj(lj))
-        if model == "complex":
-            cols += [a + b, 1j * (a - b)]
-        else:
-            cols.append(a * b)
+    lam = np.asarray(lam, complex)
+    n = lam.size
+    npp = 2 if model == "complex" else 1
+    Phi = np.empty((s.size, npp * n + sum(asymptotic)), complex)
+    a = 1.0 / (s[:, None] - lam[None, :])
+    b = 1.0 / (s[:, None] - lam.conj()[None, :])
+    if model == "complex":
+        Phi[:, 0:2 * n:2] = a + b
+        Phi[:, 1:2 * n:2] = 1j * (a - b)
+    else:
+        Phi[:, :n] = a * b
+    i = npp * n
     if asymptotic[0]:
-        cols.append(np.ones_like(s))
+        Phi[:, i] = 1.0
+        i += 1
     if asymptotic[1]:
-        cols.append(1.0 / s**2)
-    Phi = np.stack(cols, axis=1) if cols else np.zeros((s.size, 0), complex)
+        Phi[:, i] = 1.0 / s**2
     if k:
         Phi = Phi * (s**k)[:, None]
     return Phi
