@@ -108,8 +108,10 @@ class _Problem:
         self.nfev = 0
         self._cache = {}
 
-    def evaluate(self, x, jac=False):
-        key = (x.tobytes(), jac)
+    def evaluate(self, x, jac=False, free=None):
+        """Cost, residual, coefficients, gradient (3.19) and, with ``jac``, the Gauss-Newton
+        matrix, for the parameters ``free`` (indices into ``x``; all by default)."""
+        key = (x.tobytes(), jac, None if free is None else free.tobytes())
         if key in self._cache:
             return self._cache[key]
         n = x.size // 2
@@ -125,16 +127,18 @@ class _Problem:
         self.nfev += 1
         if self.bar is not None:
             self.bar.update(1)
-        # gradient (3.19) and Gauss-Newton matrix of the Kaufman Jacobian; parameter a
-        # (ln w_j for a = j, ln z_j for a = n + j) owns columns a*npp:(a+1)*npp of D
+        # gradient (3.19) and Gauss-Newton matrix of the Kaufman Jacobian; parameter
+        # par[a] (ln w_j for j < n, ln z_j for n + j) owns columns a*npp:(a+1)*npp of D
         npp = self.npp
-        P = 2 * n
+        par = np.arange(2 * n) if free is None else np.asarray(free)
+        P = par.size
         D = np.empty((2 * self.s.size, P * npp))
-        for j in range(n):
-            dW, dZ = basis_derivative(lam[j], w[j], z[j], self.s, self.k, self.model)
-            D[:, j * npp:(j + 1) * npp] = stack(dW)
-            D[:, (n + j) * npp:(n + j + 1) * npp] = stack(dZ)
-        crow = (np.arange(P) % n)[:, None] * npp + np.arange(npp)[None, :]   # (P, npp)
+        poles_needed = np.unique(par % n)
+        deriv = {j: basis_derivative(lam[j], w[j], z[j], self.s, self.k, self.model)
+                 for j in poles_needed}
+        for a, q in enumerate(par):
+            D[:, a * npp:(a + 1) * npp] = stack(deriv[q % n][q // n])
+        crow = (par % n)[:, None] * npp + np.arange(npp)[None, :]            # (P, npp)
         Cp = C[crow.ravel()]                                                # (P npp, k)
         Dr = D.T @ r                                                        # (P npp, k)
         g = -2.0 * np.sum((Dr * Cp).reshape(P, npp, -1), axis=(1, 2))       # dJ/dtheta (3.19)
@@ -162,12 +166,7 @@ class _SubProblem:
     def evaluate(self, xs, jac=False):
         x = self.x_full.copy()
         x[self.free] = xs
-        ev = self.prob.evaluate(x, jac)
-        out = dict(ev)
-        out["grad"] = ev["grad"][self.free]
-        if jac:
-            out["JtJ"] = ev["JtJ"][np.ix_(self.free, self.free)]
-        return out
+        return self.prob.evaluate(x, jac, self.free)
 
 
 def _compact(ev):
@@ -393,7 +392,7 @@ class _Auto:
         thr_dof = chi2.isf(1e-3 / max(nf, 1), df=npp * kc)
         thr = np.maximum(self.signif * thr_dof * sig2, 1e-11 * prob.normY2)
         found = []                                # (ratio, line index, damping)
-        for mult, stride in ((1.0, 1), (4.0, 2), (16.0, 4)):
+        for mult, stride in ((1.0, 1), (4.0, 2), (16.0, 4), (64.0, 16)):
             idx = np.arange(4, nf - 4, stride)    # grid finer than a quarter bandwidth
             level = np.zeros(idx.size)
             zlev = np.zeros(idx.size)
