@@ -372,8 +372,8 @@ class _Auto:
     def missed(self, w, z, ev, max_add=6, chunk=256):
         """Missed modes (frequency Hz, damping): a matched-filter scan of the residual.
 
-        For a trial pole at every line (three damping levels, half-power bandwidths of 2, 8
-        and 32 lines) the cost decrease of adding it with fixed parameters,
+        For a trial pole on a grid of lines (four damping levels, half-power bandwidths of
+        2, 8, 32 and 128 lines, capped at 5% damping) the cost decrease of adding it with fixed parameters,
         ``||(G_p^T G_p)^-1/2 G_p^T r||^2`` with ``G_p`` its basis orthogonalised against the
         current one, is compared with the significance threshold of :meth:`significance`
         (noise level from the running median of the residual).  Local maxima above the
