@@ -434,3 +434,20 @@ def test_trouble_is_reported():
     msgs = [str(w.message) for w in rec if issubclass(w.category, IdentificationWarning)]
     assert msgs and cm.info["warnings"]
     assert any("converge" in m or "ill-conditioned" in m for m in msgs)
+
+
+def test_progress_bar_and_interrupt(monkeypatch, capsys):
+    frf, lam, _ = ten_mode(df=0.1)
+    sd.identify(frf, poles=lam, band=BAND, progress=True)
+    assert "identify" in capsys.readouterr().err                 # tqdm bar on stderr
+    # Ctrl-C during the automatic selection returns the last complete fit, flagged
+    from sdctrl.identify import optimize
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(optimize._Auto, "missed", interrupt)
+    monkeypatch.setattr(optimize._Auto, "prune", lambda *a, **k: None)
+    with pytest.warns(IdentificationWarning, match="interrupted"):
+        cm = sd.identify(frf, band=BAND, progress=False)
+    assert cm.info["interrupted"] and cm.n > 0
