@@ -111,7 +111,7 @@ def test_noise_free_every_pole_no_spurious(clean_fit):
     _frf, lam, R, cm, elapsed = clean_fit
     assert cm.n == 10                                       # every pole, no spurious one
     fe, ze, re = _errors(cm, lam, R)
-    # measured: freq <= 1e-9, damping <= 1e-8 relative, residues <= 1e-6 relative
+    # measured: freq 6e-14, damping 4e-11, residues 8e-12 relative (max over the 10 modes)
     assert fe.max() < 1e-5
     assert np.max(np.abs(cm.damping[_match(cm, lam)] - Z_TRUE)) < 1e-3
     assert ze.max() < 1e-3
