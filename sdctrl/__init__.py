@@ -46,7 +46,7 @@ _EXPORTS = {
     "worst_case_gain": "sdctrl.robust",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single source
 
 
 # submodules reachable as attributes (``sd.plot.bode``) without importing them up front
