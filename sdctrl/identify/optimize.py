@@ -295,8 +295,10 @@ class _Auto:
     """Add/remove loop of :func:`identify` when no poles are given."""
 
     def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
-                 significance, warn):
+                 significance, warn, shape=None):
         self.prob, self.freq, self.fband = prob, freq, fband
+        self.shape = shape                      # noise shape (nf, k) from the coherence
+        self.win = max(41, freq.size // 20)     # running-median window of the noise
         self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
         self.df = float(np.median(np.diff(freq)))
         self.min_bw, self.zeta_max, self.signif = min_bandwidth, zeta_max, significance
@@ -314,39 +316,104 @@ class _Auto:
         ev = self.prob.evaluate(x)
         return w, z, ev, info
 
-    def _local_noise(self, r, fj, zj):
-        """Noise variance per real data entry from the residual near ``fj`` Hz."""
-        nf = self.freq.size
-        e = np.sum(r[:nf] ** 2 + r[nf:] ** 2, axis=1)
-        half = max(3 * zj * fj, 5 * self.df)
-        sel = np.flatnonzero(np.abs(self.freq - fj) <= half)
-        if sel.size < 10:
-            sel = np.argsort(np.abs(self.freq - fj))[:10]
-        return float(np.sum(e[sel]) / (2 * r.shape[1] * sel.size))
+    def noise_field(self, r, Yfit, Q):
+        """Heteroscedastic noise variance ``E[r_re^2 + r_im^2]`` per line and data column.
+
+        Two robust local estimates (running medians over ``self.win`` lines of the
+        residual ``r`` standardised by the leverage ``h`` of each line of the current basis
+        ``Q``, ``e = |r|^2 / (1 - h)``, corrected by ``1/ln 2``, the mean/median ratio of the exponential
+        law of ``r_re^2 + r_im^2``), the larger of which is kept at every line:
+
+        * an additive level, ``median(e)`` (noise floor, antiresonances);
+        * a level proportional to a shape ``s(f)``: ``median(e/s) s``, with ``s`` the
+          point variance ``|H|^2 (1 - coherence)`` (3.59) when the coherence is known,
+          else the fitted response ``|Y_fit|^2`` (multiplicative noise, larger at peaks).
+        """
+        from scipy.ndimage import median_filter
+
+        nf = r.shape[0] // 2
+        lev = np.sum(Q * Q, axis=1)
+        lev = 0.5 * (lev[:nf] + lev[nf:])                    # leverage of each line
+        e = (r[:nf] ** 2 + r[nf:] ** 2) / np.maximum(1.0 - lev, 0.05)[:, None]
+        shape = self.shape if self.shape is not None else Yfit[:nf] ** 2 + Yfit[nf:] ** 2
+        tiny = 1e-300 + 1e-30 * float(np.max(shape))
+        size = (min(nf, self.win), 1)
+        add = median_filter(e, size=size, mode="nearest")
+        mult = median_filter(e / (shape + tiny), size=size, mode="nearest") * shape
+        return np.maximum(add, mult) / np.log(2.0)
+
+    def _threshold(self, s):
+        """Noise threshold of a pole's cost change from per-column variances ``s`` (.., k).
+
+        For pure noise the change is ``sum_c s_c chi2(npp)`` (``s_c`` the variance seen
+        through the pole's projection in column ``c``); its law is approximated by a
+        scaled ``g chi2(h)`` with the same mean and variance (Welch-Satterthwaite), so
+        that columns with unequal noise (a few dominate) give the heavier tail they
+        have.  The quantile is ``1e-3 / nf`` (the pole could sit at any line) and
+        ``significance`` multiplies it.
+        """
+        from scipy.stats import chi2
+
+        npp = self.prob.npp
+        s1 = np.sum(s, axis=-1)
+        s2 = np.maximum(np.sum(s * s, axis=-1), 1e-300)
+        g = s2 / np.maximum(s1, 1e-300)
+        h = np.maximum(npp * s1 * s1 / s2, 1e-3)
+        return self.signif * g * chi2.isf(1e-3 / max(self.freq.size, 1), df=h)
+
+    @staticmethod
+    def _proj_diag(G):
+        """Diagonal of the projector on the columns of ``G`` (2nf, npp) per trial.
+
+        ``G`` has shape (2nf, T, npp); returns (2nf, T)."""
+        if G.shape[-1] == 1:
+            g = G[..., 0]
+            return g * g / np.maximum(np.sum(g * g, axis=0), 1e-300)
+        g0, g1 = G[..., 0], G[..., 1]
+        a = np.sum(g0 * g0, axis=0)
+        b = np.sum(g0 * g1, axis=0)
+        c = np.sum(g1 * g1, axis=0)
+        return (c * g0 * g0 - 2 * b * g0 * g1 + a * g1 * g1) / np.maximum(a * c - b * b,
+                                                                           1e-300)
 
     def significance(self, w, z, ev):
-        """Cost increase when each pole is removed, over its noise threshold (>1 keeps)."""
-        from scipy.stats import chi2
+        """Cost increase when each pole is removed, over its noise threshold (>1 keeps).
+
+        The noise is estimated (:meth:`noise_field`) from the residual of the full model,
+        standardised by the leverage of each line (a pole absorbs part of the noise of
+        the lines it fits: ``E r_i^2 = sigma_i^2 (1 - h_i)``), and weighted by where the
+        pole's basis function lives (diagonal of the projector on its columns orthogonal
+        to the others), so that a pole on a peak is compared with the larger noise at
+        the peak and a pole in a noise floor with that floor.
+        """
+        import scipy.linalg as sla
 
         prob = self.prob
         n = w.size
         npp = prob.npp
-        k = prob.Y.shape[1]
-        r = ev["r"]
-        base = ev["cost"]
-        out = np.empty(n)
-        thr_dof = chi2.isf(1e-3 / max(self.freq.size, 1), df=npp * k) / (npp * k)
+        nf = self.freq.size
         floor = 1e-11 * prob.normY2
+        lsq, r = ev["lsq"], ev["r"]
+        # one QR for all the poles: with A = Q R (scaled columns), the part of pole j's
+        # columns S orthogonal to the others is B = Q R^-T[:, S] M_SS^-1 (M = R^-1 R^-T),
+        # B^T B = M_SS^-1, and removing j raises the cost by tr(C_S^T M_SS^-1 C_S) and
+        # the residual by B C_S (C: coefficients of the scaled columns)
+        Rinv = sla.solve_triangular(lsq.Rr, np.eye(lsq.Rr.shape[0]), check_finite=False)
+        W = lsq.Q @ Rinv.T
+        M = Rinv @ Rinv.T
+        Cs = sla.solve_triangular(lsq.Rr, lsq.Q.T @ prob.Y, check_finite=False)
+        sig2 = self.noise_field(r, prob.Y - r, lsq.Q)
+        out = np.empty(n)
         for j in range(n):
-            keep = np.arange(n) != j
-            lam = pole_from_params(w[keep], z[keep])
-            Phi = basis(lam, prob.s, prob.k, prob.model, prob.asym)
-            lsq = LSQ(Phi)
-            QtY = lsq.Q.T @ prob.Y
-            dJ = max(prob.normY2 - float(np.sum(QtY**2)), 0.0) - base
-            fj = w[j] / (2 * np.pi)
-            sig2 = self._local_noise(r, fj, z[j])
-            thr = max(self.signif * thr_dof * npp * k * sig2, floor)
+            S = np.arange(j * npp, (j + 1) * npp)
+            MSS = M[np.ix_(S, S)]
+            Ginv = np.linalg.inv(MSS)
+            B = W[:, S] @ Ginv
+            dJ = float(np.sum(Cs[S] * (Ginv @ Cs[S])))
+            d = np.sum((B @ MSS) * B, axis=1)                           # projector diagonal
+            dl = d[:nf] + d[nf:]
+            sc = 0.5 * (dl @ sig2) / npp                        # per column
+            thr = max(float(self._threshold(sc)), floor)
             out[j] = dJ / thr
         return out
 
@@ -357,8 +424,13 @@ class _Auto:
             sig = self.significance(w, z, ev)
             weak = np.flatnonzero(sig < 1.0)
             if weak.size:
-                j = weak[np.argmin(sig[weak])]
-                reasons[j] = f"not significant (cost change {sig[j]:.3g} x noise threshold)"
+                # the weakest, and with it every clearly insignificant pole with no other
+                # pole nearby (two poles sharing one mode each look insignificant)
+                isolated = [j for j in weak if sig[j] < 0.5 and not np.any(
+                    (np.arange(w.size) != j)
+                    & (np.abs(f - f[j]) < max(10 * self.df, 10 * z[j] * f[j])))]
+                for j in {int(weak[np.argmin(sig[weak])]), *isolated}:
+                    reasons[j] = f"not significant (cost change {sig[j]:.3g} x noise threshold)"
         if not reasons:
             return None
         drop = np.array(sorted(reasons))
@@ -379,18 +451,14 @@ class _Auto:
         (noise level from the running median of the residual).  Local maxima above the
         threshold are returned, strongest first.
         """
-        from scipy.ndimage import median_filter
         from scipy.signal import argrelmax
-        from scipy.stats import chi2
 
         prob = self.prob
         Q, r = ev["lsq"].Q, ev["r"]
-        nf, kc, npp = self.freq.size, r.shape[1], prob.npp
-        e = np.sum(r[:nf] ** 2 + r[nf:] ** 2, axis=1)
-        size = min(nf, max(41, nf // 20))
-        sig2 = median_filter(e, size=size, mode="nearest") / (2 * kc)
-        thr_dof = chi2.isf(1e-3 / max(nf, 1), df=npp * kc)
-        thr = np.maximum(self.signif * thr_dof * sig2, 1e-11 * prob.normY2)
+        nf, npp = self.freq.size, prob.npp
+        sig2 = self.noise_field(r, prob.Y - r, Q)
+        sig2s = 0.5 * np.concatenate([sig2, sig2]) / npp              # per real entry
+        floor = 1e-11 * prob.normY2
         found = []                                # (ratio, line index, damping)
         for mult, stride in ((1.0, 1), (4.0, 2), (16.0, 4), (64.0, 16)):
             idx = np.arange(4, nf - 4, stride)    # grid finer than a quarter bandwidth
@@ -415,7 +483,9 @@ class _Auto:
                     dJ = num / np.maximum(a * c - b * b, 1e-300)
                 else:
                     dJ = np.sum(Gr**2, axis=1) / np.maximum(np.sum(G * G, axis=0), 1e-300)
-                level[i0:i0 + ii.size] = dJ / thr[ii]
+                d = self._proj_diag(G.reshape(G.shape[0], -1, npp))      # (2nf, T)
+                thr = np.maximum(self._threshold(d.T @ sig2s), floor)
+                level[i0:i0 + ii.size] = dJ / thr
                 zlev[i0:i0 + ii.size] = zl
             pk = argrelmax(level, order=2)[0]
             found += [(level[i], idx[i], zlev[i]) for i in pk if level[i] > 1.0]
@@ -434,6 +504,17 @@ class _Auto:
         return cand
 
     def run(self, w, z, side, bar=None, rounds=20):
+        # initial candidates far below the noise threshold at their picked position
+        # (noise peaks of the indicator functions) are dropped before the first, costly,
+        # fit; a true mode dropped here is not excluded from the residual scan
+        if w.size > 1:
+            x = np.concatenate([np.log(w), np.log(z)])
+            sig0 = self.significance(w, z, self.prob.evaluate(x))
+            keep = (sig0 >= 0.2) | (side != 0)
+            for j in np.flatnonzero(~keep):
+                self.log.append(("dropped candidate", float(w[j] / (2 * np.pi)), float(z[j]),
+                                 f"cost change {sig0[j]:.3g} x noise threshold"))
+            w, z, side = w[keep], z[keep], side[keep]
         w, z, ev, info = self.fit(w, z, side)
         self.best = (w, z, side, ev, info)
         tried_side = {-1: False, 1: False}
@@ -737,8 +818,12 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         with threadpool_limits(1):
             prob = _Problem(Y, s, k, model, asym, bar)
             if auto:
+                shape = None
+                if data.coherence is not None:      # point variance (3.59), up to a scale
+                    pv = (np.abs(Hm) ** 2 * (1.0 - data.coherence.reshape(nf, m)))
+                    shape = pv if V is None else pv @ V**2
                 runner = _Auto(prob, freq, fband, optimizer, max_iter, tol, min_bandwidth,
-                               zeta_max, significance, warn)
+                               zeta_max, significance, warn, shape)
                 try:
                     w, z, side, _ev, sinfo = runner.run(w0, z0, side, bar)
                 except KeyboardInterrupt:
