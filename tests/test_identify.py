@@ -221,6 +221,82 @@ def test_noisy_auto_finds_in_band_modes():
 
 
 # --------------------------------------------------------------------------------------
+# automatic pole selection on noisy data: no spurious pole, weak real modes kept
+# --------------------------------------------------------------------------------------
+def _chain_demo(seed=0, noise=0.01, floor=1e-3):
+    """The package demo data: 3-mode chain, accelerations 2-80 Hz, 1200 lines, 1% noise
+    plus an additive floor of 1e-3 of each channel's peak (noise-dominated at low
+    frequency, as real accelerometer tests)."""
+    from sdctrl.cli import _chain_model
+
+    model = _chain_model()
+    freq = np.linspace(2.0, 80.0, 1200)
+    exact = model.frf(freq, "acceleration")
+    rng = np.random.default_rng(seed)
+    scale = noise * np.abs(exact.H) + floor * np.abs(exact.H).max(axis=0, keepdims=True)
+    H = exact.H + scale * (rng.standard_normal(exact.H.shape)
+                           + 1j * rng.standard_normal(exact.H.shape)) / np.sqrt(2)
+    frf = sd.FRF(freq, H, "acceleration", sensors=exact.sensors, actuators=exact.actuators,
+                 collocated=[(0, 0), (2, 1)])
+    return frf, np.asarray(model.poles)
+
+
+def test_noisy_demo_chain_three_poles_only():
+    """Before the heteroscedastic significance test: 10 poles (7 noise poles at 7-66 Hz,
+    0.1-0.5% damping) in 17 s.  Measured now (seed 0): 3 poles, frequency errors
+    <= 2.8e-5, damping errors <= 0.5% relative (seeds 0-2: <= 9e-5 and <= 0.8%), 1.7 s;
+    seeds 0-5 at 1% noise and at 3% noise with a
+    3e-3 floor: 3 poles in all twelve, 0.7-7 s."""
+    frf, lam = _chain_demo()
+    t0 = time.perf_counter()
+    cm = sd.identify(frf, progress=False)
+    elapsed = time.perf_counter() - t0
+    assert cm.in_band.sum() == 3 and cm.n == 3
+    i = _match(cm, lam)
+    f_true = np.abs(lam) / (2 * np.pi)
+    z_true = -lam.real / np.abs(lam)
+    np.testing.assert_allclose(cm.frequency[i], f_true, rtol=1e-3)
+    np.testing.assert_allclose(cm.damping[i], z_true, rtol=0.1)
+    assert elapsed < 15.0                               # measured 1.7 s (2 cores)
+
+
+def test_noisy_ten_mode_no_spurious_pole():
+    """1% proportional noise, no poles given, 12 noise draws.  Before: the local mode
+    (40 dB down) found in 4 of seeds 0-5 and a spurious pole near 33 Hz in one.  Measured
+    now: no spurious pole in any of seeds 0-13 at 1% (nor 0-3 at 3%); the local mode found
+    in 13 of the 14 seeds at 1% (missed in seed 6; at 3% noise it sits below the noise and
+    is never found); about 1-3 s per draw."""
+    local = 0
+    for seed in range(12):
+        frf, _lam, _R = ten_mode(noise=0.01, seed=seed)
+        cm = sd.identify(frf, band=BAND, progress=False)
+        f = cm.frequency[cm.in_band]
+        strong = F_TRUE[IN_BAND & (np.arange(10) != 6)]
+        assert all(np.min(np.abs(f - ft)) / ft < 1e-3 for ft in strong), seed
+        # every in-band pole is one of the true modes (the local one within 0.2%)
+        spurious = [x for x in f if np.min(np.abs(F_TRUE[IN_BAND] - x)) / x > 2e-3]
+        assert not spurious, (seed, spurious)
+        local += bool(np.min(np.abs(f - 44.0)) / 44.0 < 2e-3)
+    assert local >= 10                                 # measured 11 of 12
+
+
+def test_noisy_testbed_twelve_modes():
+    """Testbed FRF (31 sensors x 6 shakers, 1000 lines 8-60 Hz), 1% noise: the 12 in-band
+    modes, the close pair 15.79/15.87 Hz separated, the mode near 63 Hz flagged out of
+    band.  Measured (seeds 0-2 at 1% and 3%): 12 in-band poles in all six, 3-7 s."""
+    from sdctrl.testbed import TESTBED_BAND
+
+    f_true = np.array([9.518, 12.66, 15.786, 15.872, 18.135, 18.63, 27.60, 43.83, 48.42,
+                       52.90, 54.73, 56.40])
+    cm = sd.identify(sd.testbed_frf(noise=0.01, seed=2), band=TESTBED_BAND, progress=False)
+    f = cm.frequency[cm.in_band]
+    assert f.size == 12
+    assert np.max(np.abs(np.sort(f) / f_true - 1)) < 1e-3
+    assert np.all((cm.frequency[~cm.in_band] < TESTBED_BAND[0])
+                  | (cm.frequency[~cm.in_band] > TESTBED_BAND[1]))
+
+
+# --------------------------------------------------------------------------------------
 # optimisers, parametrisations, quantities
 # --------------------------------------------------------------------------------------
 def test_gradient_and_varpro_reach_the_same_optimum():
