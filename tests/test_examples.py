@@ -45,6 +45,13 @@ def test_cli_demo(tmp_path):
     report = (out / "report.md").read_text()
     assert "# sdctrl demo report" in report and (out / "bode.png").stat().st_size > 10_000
     assert "![Bode plot](bode.png)" in report
+    # the identification section: the 3 true modes found from noisy data, no initial guess
+    sec = report.split("## Identification")[1].split("##")[0]
+    rows = [r.split("|") for r in sec.splitlines() if r.startswith("| ") and r[2].isdigit()]
+    assert len(rows) == 3
+    assert max(abs(float(r[4])) for r in rows) < 1e-4          # relative frequency error
+    assert max(abs(float(r[7])) for r in rows) < 1e-3          # absolute damping error
+    assert "Identified `Gamma`" in report
 
 
 def test_cli_console_script_and_info(tmp_path):
