@@ -29,6 +29,33 @@ converge (pushed to a bound), fit noise (half-power bandwidth below a fraction o
 spacing), are in-band fillers with very large damping or are not statistically
 significant, and try out-of-band poles just below and above the band (held outside by
 bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2`` cannot represent.
+
+Significance on noisy data.  Noise in real tests is heteroscedastic: multiplicative
+(larger at peaks), an additive floor (dominant at antiresonances and, for accelerations,
+at low frequency), and unequal between channels.  A pole is kept, and a residual peak
+becomes a candidate, only if its cost change exceeds what pure noise would give:
+
+* the noise variance per line and data column is estimated locally and robustly
+  (running medians of the residual over ``max(41, nf/20)`` lines, standardised by the
+  leverage ``h`` of each line, ``|r|^2 / (1 - h)``, since a pole absorbs part of the noise
+  of the lines it fits), as the larger of an additive level and a level proportional to
+  a shape: the point variance ``|H|^2 (1 - coherence)`` (3.59) when ``frf.coherence`` is
+  given, else the fitted ``|H|^2`` (multiplicative noise);
+* it is weighted by the diagonal of the projector on the pole's columns (orthogonalised
+  against the other poles): a pole on a peak meets the noise of the peak;
+* the cost change of a noise-fitting pole, ``sum_c s_c chi2(npp)`` over the data
+  columns, is approximated by a scaled chi-square with the same mean and variance
+  (Welch-Satterthwaite), so that a few noisy channels give the heavier tail they have;
+  the threshold is its ``1e-3/nf`` quantile (the pole could sit at any line) times
+  ``significance`` (2 by default, covering the two nonlinear parameters fitted).
+
+Initial candidates far below this threshold (noise peaks of the indicator functions)
+are dropped before the first fit, and isolated insignificant poles are removed together,
+so the add/remove loop (at most 20 rounds) stays short.  The rank-one test of the
+residues (3.2.2, :meth:`ComplexModeModel.singular_value_ratios`) is not used to reject
+poles: a real mode at the noise level (a weak local mode) has a far-from-dyadic residue
+too, single-input data carry no such information, and the significance test already
+rejects the noise poles it would catch.
 """
 
 from __future__ import annotations
@@ -686,8 +713,10 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         In-band poles with a larger damping ratio are rejected as fillers (automatic mode).
     significance : float
         Multiplier of the noise threshold a pole's contribution must exceed to be kept
-        (automatic mode); the threshold is the 1e-3/nf quantile of the chi-square cost
-        change of a pole fitting pure noise, with the noise level estimated locally.
+        (automatic mode); the threshold is the 1e-3/nf quantile of the cost change of a
+        pole fitting pure noise, with a heteroscedastic noise level estimated locally
+        from the residual (and the coherence when ``frf.coherence`` is given), see the
+        module notes.
     seed : int, optional
         Seed of the randomised range finder (results are deterministic given a seed).
     progress : bool
