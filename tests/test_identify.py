@@ -264,8 +264,8 @@ def test_noisy_ten_mode_no_spurious_pole():
     """1% proportional noise, no poles given, 12 noise draws.  Before: the local mode
     (40 dB down) found in 4 of seeds 0-5 and a spurious pole near 33 Hz in one.  Measured
     now: no spurious pole in any of seeds 0-13 at 1% (nor 0-3 at 3%); the local mode found
-    in 13 of the 14 seeds at 1% (missed in seed 6; at 3% noise it sits below the noise and
-    is never found); about 1-3 s per draw."""
+    in 12 of the 14 seeds at 1% (missed in seeds 6 and 12; at 3% noise it sits below the
+    noise and is never found); 0.5-1.8 s per draw (before: 2-7 s)."""
     local = 0
     for seed in range(12):
         frf, _lam, _R = ten_mode(noise=0.01, seed=seed)
@@ -283,7 +283,8 @@ def test_noisy_ten_mode_no_spurious_pole():
 def test_noisy_testbed_twelve_modes():
     """Testbed FRF (31 sensors x 6 shakers, 1000 lines 8-60 Hz), 1% noise: the 12 in-band
     modes, the close pair 15.79/15.87 Hz separated, the mode near 63 Hz flagged out of
-    band.  Measured (seeds 0-2 at 1% and 3%): 12 in-band poles in all six, 3-7 s."""
+    band.  Measured (seeds 0-2 at 1% and 3%): 12 in-band poles in all six, 1.3-3.3 s
+    (before: 3-9 s)."""
     from sdctrl.testbed import TESTBED_BAND
 
     f_true = np.array([9.518, 12.66, 15.786, 15.872, 18.135, 18.63, 27.60, 43.83, 48.42,
