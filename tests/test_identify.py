@@ -246,7 +246,7 @@ def test_noisy_demo_chain_three_poles_only():
     0.1-0.5% damping) in 17 s.  Measured now (seed 0): 3 poles, frequency errors
     <= 2.8e-5, damping errors <= 0.5% relative (seeds 0-2: <= 9e-5 and <= 0.8%), 1.7 s;
     seeds 0-5 at 1% noise and at 3% noise with a
-    3e-3 floor: 3 poles in all twelve, 0.7-7 s."""
+    3e-3 floor: 3 poles in all twelve, 0.5-7.5 s."""
     frf, lam = _chain_demo()
     t0 = time.perf_counter()
     cm = sd.identify(frf, progress=False)
