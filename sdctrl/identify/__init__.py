@@ -13,8 +13,8 @@ two the attribute resolves to.
 from __future__ import annotations
 
 import importlib
-import sys
-import types
+
+from sdctrl._callable import make_callable
 
 _EXPORTS = {
     "initial_poles": "sdctrl.identify.poles",
@@ -33,35 +33,4 @@ def __getattr__(name: str):
     return getattr(importlib.import_module(module), name)
 
 
-_PACKAGE_DOC = __doc__
-
-
-class _CallablePackage(types.ModuleType):
-    """The package, callable as :func:`sdctrl.identify.optimize.identify`.
-
-    ``help(sd.identify)`` and ``inspect.signature(sd.identify)`` show the function's
-    documentation and signature.
-    """
-
-    def __call__(self, *args, **kwargs):
-        from sdctrl.identify.optimize import identify
-
-        return identify(*args, **kwargs)
-
-    @property
-    def __doc__(self):
-        from sdctrl.identify.optimize import identify
-
-        return identify.__doc__ + "\n    Package notes\n    -------------\n" + "\n".join(
-            "    " + line for line in _PACKAGE_DOC.splitlines())
-
-    @property
-    def __signature__(self):
-        import inspect
-
-        from sdctrl.identify.optimize import identify
-
-        return inspect.signature(identify)
-
-
-sys.modules[__name__].__class__ = _CallablePackage
+make_callable(__name__)
