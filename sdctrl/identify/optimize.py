@@ -28,7 +28,11 @@ and iterates: add a pole where the residual shows a missed mode, drop poles that
 converge (pushed to a bound), fit noise (half-power bandwidth below a fraction of the line
 spacing), are in-band fillers with very large damping or are not statistically
 significant, and try out-of-band poles just below and above the band (held outside by
-bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2`` cannot represent.
+bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2`` cannot represent.  A
+side's trial is repeated whenever the in-band pole set has changed since its last
+trial: on a first fit that still misses in-band modes (common with single-reference
+data, whose indicator functions propose fewer candidates), their residual pulls the
+trial pole to a bound, and the out-of-band mode is only found once they are fitted.
 
 Significance on noisy data.  Noise in real tests is heteroscedastic: multiplicative
 (larger at peaks), an additive floor (dominant at antiresonances and, for accelerations,
@@ -564,7 +568,7 @@ class _Auto:
             w, z, side = w[keep], z[keep], side[keep]
         w, z, ev, info = self.fit(w, z, side)
         self.best = (w, z, side, ev, info)
-        tried_side = {-1: False, 1: False}
+        tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
         failed_adds = 0
         for _ in range(rounds):
             if bar is not None:
@@ -575,12 +579,14 @@ class _Auto:
                 w, z, ev, info = self.fit(w, z, side)
                 self.best = (w, z, side, ev, info)
                 continue
-            # modes just outside the band (their tails distort the in-band residual)
+            # modes just outside the band (their tails distort the in-band residual);
+            # retried on each side whenever the number of in-band poles has changed
             changed = False
             for sd in (-1, 1):
-                if tried_side[sd] or np.any(side == sd):
+                nin = int(np.count_nonzero(side == 0))
+                if tried_side[sd] == nin or np.any(side == sd):
                     continue
-                tried_side[sd] = True
+                tried_side[sd] = nin
                 f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
                 wn = np.concatenate([w, [2 * np.pi * f0]])
                 zn = np.concatenate([z, [0.01]])
