@@ -360,6 +360,7 @@ class _Auto:
         self.warn = warn
         self.tried = []
         self.best = None
+        self._trials = {}                       # trial-pole bases of the residual scan
 
     def fit(self, w, z, side, only=None):
         w, z, info = _search(self.prob, w, z, side, self.fband, self.optimizer,
@@ -392,6 +393,14 @@ class _Auto:
         add = _running_median(e, self.win)
         mult = _running_median(e / (shape + tiny), self.win) * shape
         return np.maximum(add, mult) / np.log(2.0)
+
+    def noise(self, ev):
+        """:meth:`noise_field` of the fit ``ev``, computed once per fit (the pruning test,
+        the residual scan and the acceptance of new poles meet the same fit)."""
+        if "sig2" not in ev:
+            r = ev["r"]
+            ev["sig2"] = self.noise_field(r, self.prob.Y - r, ev["lsq"].Q)
+        return ev["sig2"]
 
     def _threshold(self, s):
         """Noise threshold of a pole's cost change from per-column variances ``s`` (.., k).
@@ -444,7 +453,7 @@ class _Auto:
         npp = prob.npp
         nf = self.freq.size
         floor = 1e-11 * prob.normY2
-        lsq, r = ev["lsq"], ev["r"]
+        lsq = ev["lsq"]
         # one QR for all the poles: with A = Q R (scaled columns), the part of pole j's
         # columns S orthogonal to the others is B = Q R^-T[:, S] M_SS^-1 (M = R^-1 R^-T),
         # B^T B = M_SS^-1, and removing j raises the cost by tr(C_S^T M_SS^-1 C_S) and
@@ -453,20 +462,19 @@ class _Auto:
         W = lsq.Q @ Rinv.T
         M = Rinv @ Rinv.T
         Cs = sla.solve_triangular(lsq.Rr, lsq.Q.T @ prob.Y, check_finite=False)
-        sig2 = self.noise_field(r, prob.Y - r, lsq.Q)
-        out = np.empty(n)
+        sig2 = self.noise(ev)
+        dJ = np.empty(n)
+        sc = np.empty((n, sig2.shape[1]))
         for j in range(n):
             S = np.arange(j * npp, (j + 1) * npp)
             MSS = M[np.ix_(S, S)]
             Ginv = np.linalg.inv(MSS)
             B = W[:, S] @ Ginv
-            dJ = float(np.sum(Cs[S] * (Ginv @ Cs[S])))
+            dJ[j] = float(np.sum(Cs[S] * (Ginv @ Cs[S])))
             d = np.sum((B @ MSS) * B, axis=1)                           # projector diagonal
             dl = d[:nf] + d[nf:]
-            sc = 0.5 * (dl @ sig2) / npp                        # per column
-            thr = max(float(self._threshold(sc)), floor)
-            out[j] = dJ / thr
-        return out
+            sc[j] = 0.5 * (dl @ sig2) / npp                     # per column
+        return dJ / np.maximum(self._threshold(sc), floor)
 
     def prune(self, w, z, side, ev, info):
         f = w / (2 * np.pi)
@@ -492,6 +500,20 @@ class _Auto:
         keep[drop] = False
         return w[keep], z[keep], side[keep]
 
+    def _trial_basis(self, key, fl, zl):
+        """Stacked basis of the scan's trial poles (frequencies ``fl`` Hz, damping ``zl``),
+        kept between scans when the whole grid takes at most ``2^23`` numbers: the
+        trial poles do not depend on the current model."""
+        G = self._trials.get(key)
+        if G is None:
+            prob = self.prob
+            lam = pole_from_params(2 * np.pi * fl, zl)
+            G = stack(basis(lam, prob.s, prob.k, prob.model, (False, False)))
+            # four damping levels, about 1 + 1/2 + 1/4 + 1/16 trials per line
+            if 2 * prob.s.size * 1.9 * self.freq.size * prob.npp <= 2**23:
+                self._trials[key] = G
+        return G
+
     def missed(self, w, z, ev, max_add=6, chunk=256):
         """Missed modes (frequency Hz, damping): a matched-filter scan of the residual.
 
@@ -507,7 +529,7 @@ class _Auto:
         prob = self.prob
         Q, r = ev["lsq"].Q, ev["r"]
         nf, npp = self.freq.size, prob.npp
-        sig2 = self.noise_field(r, prob.Y - r, Q)
+        sig2 = self.noise(ev)
         sig2s = 0.5 * np.concatenate([sig2, sig2]) / npp              # per real entry
         floor = 1e-11 * prob.normY2
         found = []                                # (ratio, line index, damping)
@@ -519,23 +541,28 @@ class _Auto:
                 ii = idx[i0:i0 + chunk]
                 fl = self.freq[ii]
                 zl = np.clip(mult * self.df / fl, _ZMIN * 10, 0.05)
-                lam = pole_from_params(2 * np.pi * fl, zl)
-                G = stack(basis(lam, prob.s, prob.k, prob.model, (False, False)))
-                G -= Q @ (Q.T @ G)
+                G = self._trial_basis((mult, i0), fl, zl)
+                G = G - Q @ (Q.T @ G)
                 Gr = G.T @ r
                 if npp == 2:
+                    # cost decrease and d^T sig2s, d the diagonal of the projector on
+                    # [g0 g1]: (c g0^2 - 2b g0 g1 + a g1^2) / (ac - b^2), by products
                     g0, g1 = G[:, 0::2], G[:, 1::2]
-                    a = np.sum(g0 * g0, axis=0)
-                    b = np.sum(g0 * g1, axis=0)
-                    c = np.sum(g1 * g1, axis=0)
+                    g00, g01, g11 = g0 * g0, g0 * g1, g1 * g1
+                    a = np.sum(g00, axis=0)
+                    b = np.sum(g01, axis=0)
+                    c = np.sum(g11, axis=0)
+                    det = np.maximum(a * c - b * b, 1e-300)
                     p0, p1 = Gr[0::2], Gr[1::2]
                     num = (c * np.sum(p0 * p0, axis=1) - 2 * b * np.sum(p0 * p1, axis=1)
                            + a * np.sum(p1 * p1, axis=1))
-                    dJ = num / np.maximum(a * c - b * b, 1e-300)
+                    dJ = num / det
+                    ds = (c[:, None] * (g00.T @ sig2s) - 2 * b[:, None] * (g01.T @ sig2s)
+                          + a[:, None] * (g11.T @ sig2s)) / det[:, None]
                 else:
                     dJ = np.sum(Gr**2, axis=1) / np.maximum(np.sum(G * G, axis=0), 1e-300)
-                d = self._proj_diag(G.reshape(G.shape[0], -1, npp))      # (2nf, T)
-                thr = np.maximum(self._threshold(d.T @ sig2s), floor)
+                    ds = self._proj_diag(G[:, :, None]).T @ sig2s
+                thr = np.maximum(self._threshold(ds), floor)
                 level[i0:i0 + ii.size] = dJ / thr
                 zlev[i0:i0 + ii.size] = zl
             pk = argrelmax(level, order=2)[0]
