@@ -73,7 +73,7 @@ from sdctrl._validate import QUANTITY_POWER, as_array
 from sdctrl.identify.residues import (
     LSQ,
     basis,
-    basis_derivative,
+    basis_derivatives,
     coefficients_to_model,
     n_per_pole,
     pole_from_params,
@@ -163,12 +163,11 @@ class _Problem:
         npp = self.npp
         par = np.arange(2 * n) if free is None else np.asarray(free)
         P = par.size
-        D = np.empty((2 * self.s.size, P * npp))
         poles_needed = np.unique(par % n)
-        deriv = {j: basis_derivative(lam[j], w[j], z[j], self.s, self.k, self.model)
-                 for j in poles_needed}
-        for a, q in enumerate(par):
-            D[:, a * npp:(a + 1) * npp] = stack(deriv[q % n][q // n])
+        deriv = basis_derivatives(lam[poles_needed], w[poles_needed], z[poles_needed],
+                                  self.s, self.k, self.model)      # (2, nf, needed, npp)
+        D = stack(deriv[par // n, :, np.searchsorted(poles_needed, par % n)]
+                  .transpose(1, 0, 2).reshape(self.s.size, P * npp))
         crow = (par % n)[:, None] * npp + np.arange(npp)[None, :]            # (P, npp)
         Cp = C[crow.ravel()]                                                # (P npp, k)
         Dr = D.T @ r                                                        # (P npp, k)

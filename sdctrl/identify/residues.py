@@ -27,6 +27,7 @@ import scipy.linalg as sla
 __all__ = [
     "basis",
     "basis_derivative",
+    "basis_derivatives",
     "coefficients_to_model",
     "pole_from_params",
     "solve",
@@ -98,6 +99,25 @@ def basis_derivative(lam: complex, w: float, z: float, s: np.ndarray, k: int,
             g = (da * b + a * db)[:, None]
         out.append(g * sk)
     return out[0], out[1]
+
+
+def basis_derivatives(lam: np.ndarray, w: np.ndarray, z: np.ndarray, s: np.ndarray, k: int,
+                      model: str = "complex") -> np.ndarray:
+    """:func:`basis_derivative` for several poles at once: (2, nf, n, npp) complex, the
+    derivatives w.r.t. ``ln w`` (index 0) and ``ln z`` (index 1) of each pole's columns."""
+    lam = np.asarray(lam, complex)
+    dl = np.stack([lam, z * (-w - 1j * w * z / np.sqrt(1.0 - z**2))])[:, None, :]
+    a = 1.0 / (s[:, None] - lam[None, :])
+    b = 1.0 / (s[:, None] - np.conj(lam)[None, :])
+    da = dl * a**2
+    db = np.conj(dl) * b**2
+    if model == "complex":
+        g = np.stack([da + db, 1j * (da - db)], axis=-1)
+    else:
+        g = (da * b + a * db)[..., None]
+    if k:
+        g = g * (s**k)[None, :, None, None]
+    return g
 
 
 class LSQ:
