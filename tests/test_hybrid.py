@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from test_modal_ops import _chain
 
 import sdctrl as sd
 from sdctrl.hybrid import (
@@ -175,20 +176,6 @@ def test_static_correction_modes_are_critically_damped(case):
 # ----------------------------------------------------------------------------------------
 # exactness on a complete basis
 # ----------------------------------------------------------------------------------------
-def _chain(n=6, seed=0):
-    rng = np.random.default_rng(seed)
-    m = 1.0 + rng.random(n)
-    k = 1e4 * (1.0 + rng.random(n))
-    K = np.zeros((n, n))
-    for i in range(n):
-        K[i, i] += k[i]
-        if i + 1 < n:
-            K[i, i] += k[i + 1]
-            K[i, i + 1] = K[i + 1, i] = -k[i + 1]
-    C = 1e-4 * K + 0.05 * np.diag(m)
-    return sd.FEModel(np.diag(m), K, C, dofs=[f"N{i + 1}.x" for i in range(n)])
-
-
 def test_hybrid_of_exact_data_reproduces_the_fe_model_and_modifications():
     fe = _chain()
     c = fe.point(list(fe.dofs)).T                 # as many sensors as DOFs: A = I
