@@ -22,7 +22,7 @@ from sdctrl._validate import (
     signal_name,
 )
 
-__all__ = ["ComplexModeModel", "frf_array", "to_statespace"]
+__all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -242,28 +242,13 @@ class ComplexModeModel:
         if not pairs:
             raise ValueError("collocated must name at least one (sensor, actuator) pair "
                              "(the model has none)")
-        U, sv, Vh = np.linalg.svd(self.residues, full_matrices=False)
-        u = U[:, :, 0]                        # (n, ns)
-        v = Vh[:, 0, :] * sv[:, :1]           # (n, na) sigma_1 V_1^H
-        si = np.array([p[0] for p in pairs])
-        ai = np.array([p[1] for p in pairs])
-        us, va = u[:, si], v[:, ai]           # (n, npairs)
-        # a^2 u_s = v_a / 1 per pair  ->  least squares over pairs for z = a^2
-        z = np.sum(us.conj() * va, axis=1) / np.maximum(np.sum(np.abs(us) ** 2, axis=1),
-                                                        1e-300)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            single = np.where(np.abs(us) > 0, va / np.where(np.abs(us) > 0, us, 1), np.nan)
-        dev = np.abs(single - z[:, None])
-        spread = np.sqrt(np.nanmean(dev**2, axis=1)) / np.maximum(np.abs(z), 1e-300)
+        cpsi, psib, k = scale_residues(self.residues, pairs)
+        z, single, spread = k["z"], k["single"], k["spread"]
         zero = np.abs(z) == 0
         if np.any(zero):
             warnings.warn("scaled: modes " + ", ".join(str(j) for j in np.flatnonzero(zero)) +
                           " are not seen by any collocated pair; their scaling is undefined "
                           "(NaN)", RuntimeWarning, stacklevel=2)
-        a = np.sqrt(z.astype(complex))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cpsi = (u * a[:, None]).T
-            psib = v / np.where(zero, np.nan, a)[:, None]
         if len(pairs) > 1 and np.any(spread > spread_tol):
             bad = np.flatnonzero(spread > spread_tol)
             warnings.warn("scaled: collocated pairs disagree on the scaling of modes "
@@ -322,6 +307,46 @@ class ComplexModeModel:
         ``w_c^2 / (s + w_c)^2`` (2.20), accurate to about ``2 w / w_c`` in the band.
         """
         return to_statespace(self, quantity, omega_c)
+
+
+def scale_residues(residues, pairs):
+    """Scaling of the dyadic residues by collocated pairs, eq. (3.24)-(3.25) (kernel).
+
+    The first dyad ``R_j ~ u_j w_j^T`` (``w_j = sigma_1 conj(V_1)``, 3.23) is scaled by
+    ``kappa_j`` so that ``cpsi_j = kappa_j u_j`` and ``psib_j = w_j / kappa_j`` agree at the
+    collocated pairs; ``kappa_j^2 = z_j = sum_l conj(u_sl) w_al / sum_l |u_sl|^2`` is the
+    least-squares compromise over the pairs.  Modes with ``z_j = 0`` get NaN scalings.
+    Internal: inputs are trusted; callers decide how to report unscalable modes.
+
+    Returns
+    -------
+    cpsi : ndarray, shape (ns, n)
+    psib : ndarray, shape (n, na)
+    details : dict
+        ``z`` (n,) the scalings ``kappa^2``; ``single`` (n, npairs) the single-pair
+        scalings; ``spread`` (n,) their relative RMS deviation from ``z``; ``observed`` (n,)
+        ``sum_l |u_sl|^2``; ``sigma1`` (n,) the first singular values.
+    """
+    U, sv, Vh = np.linalg.svd(np.asarray(residues), full_matrices=False)
+    u = U[:, :, 0]                        # (n, ns)
+    v = Vh[:, 0, :] * sv[:, :1]           # (n, na) sigma_1 V_1^H
+    si = np.array([p[0] for p in pairs])
+    ai = np.array([p[1] for p in pairs])
+    us, va = u[:, si], v[:, ai]           # (n, npairs)
+    observed = np.sum(np.abs(us) ** 2, axis=1)
+    z = np.sum(us.conj() * va, axis=1) / np.maximum(observed, 1e-300)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        single = np.where(np.abs(us) > 0, va / np.where(np.abs(us) > 0, us, 1), np.nan)
+    dev2 = np.abs(single - z[:, None]) ** 2
+    count = np.sum(~np.isnan(dev2), axis=1)              # nanmean without empty-slice warnings
+    msd = np.where(count > 0, np.nansum(dev2, axis=1) / np.maximum(count, 1), np.nan)
+    spread = np.sqrt(msd) / np.maximum(np.abs(z), 1e-300)
+    a = np.sqrt(z.astype(complex))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cpsi = (u * a[:, None]).T
+        psib = v / np.where(z == 0, np.nan, a)[:, None]
+    return cpsi, psib, {"z": z, "single": single, "spread": spread, "observed": observed,
+                        "sigma1": sv[:, 0]}
 
 
 def frf_array(poles, residues, E, F, s) -> np.ndarray:

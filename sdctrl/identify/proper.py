@@ -22,6 +22,7 @@ import scipy.linalg as sla
 from threadpoolctl import ThreadpoolController
 
 from sdctrl._validate import check_collocated
+from sdctrl.identify.complex_modes import scale_residues
 
 __all__ = ["normal_modes", "proper_modes", "scaled_modes", "transformation"]
 
@@ -215,27 +216,16 @@ def scaled_modes(residues: np.ndarray, pairs) -> tuple[np.ndarray, np.ndarray]:
     cpsi : ndarray, shape (ns, n)
     psib : ndarray, shape (n, na)
     """
-    R = np.asarray(residues)
-    n, ns, na = R.shape
-    cpsi = np.empty((ns, n), complex)
-    psib = np.empty((n, na), complex)
-    si = np.array([p[0] for p in pairs])
-    ai = np.array([p[1] for p in pairs])
-    for j in range(n):
-        U, S, Vh = np.linalg.svd(R[j])
-        if S[0] == 0:
+    cpsi, psib, k = scale_residues(residues, pairs)
+    for j in range(cpsi.shape[1]):
+        if k["sigma1"][j] == 0:
             raise ValueError(f"cm: mode {j} has a zero residue matrix and cannot be scaled")
-        u, w = U[:, 0], S[0] * Vh[0]
-        den = np.sum(np.abs(u[si]) ** 2)
-        if den < 1e-12 * len(pairs):
+        if k["observed"][j] < 1e-12 * len(pairs):
             raise ValueError(f"cm: mode {j} is not observed at the collocated pairs "
                              f"{tuple(pairs)}; it cannot be scaled (3.24)")
-        kappa = np.sqrt(np.sum(np.conj(u[si]) * w[ai]) / den)
-        if kappa == 0:
+        if k["z"][j] == 0:
             raise ValueError(f"cm: mode {j} is not controlled at the collocated pairs "
                              f"{tuple(pairs)}; it cannot be scaled (3.24)")
-        cpsi[:, j] = kappa * u
-        psib[j] = w / kappa
     return cpsi, psib
 
 
