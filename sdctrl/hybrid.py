@@ -28,6 +28,7 @@ import scipy.sparse as sp
 
 from sdctrl._callable import make_callable
 from sdctrl._validate import as_array
+from sdctrl.fe.model import io_shapes
 from sdctrl.modal import NormalModeModel
 
 __all__ = ["HybridModel", "expand", "hybrid", "modify", "pair_modes", "pairing_report",
@@ -131,13 +132,10 @@ class HybridModel(NormalModeModel):
 # ----------------------------------------------------------------------------------------
 # helpers
 # ----------------------------------------------------------------------------------------
-def _is_labels(x) -> bool:
-    return isinstance(x, str) or (isinstance(x, Sequence) and len(x) > 0 and
-                                  all(isinstance(v, str) for v in x))
-
-
 def _dof_rows(dofs: Sequence[str], labels, name: str) -> np.ndarray:
     """(N, k) point shapes of DOF labels on ``dofs``."""
+    if dofs is None:
+        raise ValueError(f"{name} given as DOF labels but the model has no dofs")
     labels = [labels] if isinstance(labels, str) else [str(v) for v in labels]
     index = {d: i for i, d in enumerate(dofs)}
     B = np.zeros((len(dofs), len(labels)))
@@ -151,34 +149,12 @@ def _dof_rows(dofs: Sequence[str], labels, name: str) -> np.ndarray:
 
 def _input_shapes(x, N: int, dofs, name: str):
     """(N, k) input shapes and labels (labels only when given as DOF labels)."""
-    if _is_labels(x):
-        if dofs is None:
-            raise ValueError(f"{name} given as DOF labels but the model has no dofs")
-        labels = (x,) if isinstance(x, str) else tuple(str(v) for v in x)
-        return _dof_rows(dofs, labels, name), labels
-    if sp.issparse(x):
-        x = x.toarray()
-    B = as_array(x, name, ndim=(1, 2))
-    if B.ndim == 1:
-        B = B[:, None]
-    if B.shape[0] != N:
-        raise ValueError(f"{name} must have shape (N={N}, k), got {B.shape}")
-    return B, None
+    return io_shapes(x, N, lambda labels: _dof_rows(dofs, labels, name), name)
 
 
 def _output_shapes(x, N: int, dofs, name: str):
     """(k, N) output shapes and labels."""
-    if _is_labels(x):
-        B, labels = _input_shapes(x, N, dofs, name)
-        return B.T.copy(), labels
-    if sp.issparse(x):
-        x = x.toarray()
-    Cm = as_array(x, name, ndim=(1, 2))
-    if Cm.ndim == 1:
-        Cm = Cm[None, :]
-    if Cm.shape[1] != N:
-        raise ValueError(f"{name} must have shape (k, N={N}), got {Cm.shape}")
-    return Cm, None
+    return io_shapes(x, N, lambda labels: _dof_rows(dofs, labels, name), name, output=True)
 
 
 def _check_fe(fe):

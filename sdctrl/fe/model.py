@@ -93,6 +93,32 @@ def _check_pd(M, name: str = "M") -> None:
         raise ValueError(msg)
 
 
+def io_shapes(x, N: int, point, name: str, output: bool = False):
+    """Input shapes (N, k) or output shapes (k, N) and their labels (internal).
+
+    ``x`` is an array (dense or sparse; a 1-D array is one input/output) or DOF label(s),
+    turned into point shapes by ``point(labels) -> (N, k)``; the labels are returned when
+    given, else None.
+    """
+    if isinstance(x, str) or (isinstance(x, Sequence) and x and
+                              all(isinstance(v, str) for v in x)):
+        labels = (x,) if isinstance(x, str) else tuple(str(v) for v in x)
+        B = point(list(labels))
+        return (B.T.copy() if output else B), labels
+    if sp.issparse(x):
+        x = x.toarray()
+    A = as_array(x, name, ndim=(1, 2))
+    if output:
+        A = A[None, :] if A.ndim == 1 else A
+        if A.shape[1] != N:
+            raise ValueError(f"{name} must have shape (k, N={N}), got {A.shape}")
+    else:
+        A = A[:, None] if A.ndim == 1 else A
+        if A.shape[0] != N:
+            raise ValueError(f"{name} must have shape (N={N}, k), got {A.shape}")
+    return A, None
+
+
 def principal_static_modes(phi_s, M, rtol: float = 1e-8) -> np.ndarray:
     """Principal static modes by the mass-orthogonal SVD, eq. (4.24).
 
@@ -353,33 +379,11 @@ class FEModel:
 
     def _input(self, b, name: str = "b"):
         """(N, k) input array and labels (when built from DOF labels)."""
-        if isinstance(b, str) or (isinstance(b, Sequence) and b and
-                                  all(isinstance(x, str) for x in b)):
-            labels = [b] if isinstance(b, str) else [str(x) for x in b]
-            return self.point(labels), tuple(labels)
-        if sp.issparse(b):
-            b = b.toarray()
-        B = as_array(b, name, ndim=(1, 2))
-        if B.ndim == 1:
-            B = B[:, None]
-        if B.shape[0] != self.N:
-            raise ValueError(f"{name} must have shape (N={self.N}, k), got {B.shape}")
-        return B, None
+        return io_shapes(b, self.N, self.point, name)
 
     def _output(self, c, name: str = "c"):
         """(k, N) output array and labels."""
-        if isinstance(c, str) or (isinstance(c, Sequence) and c and
-                                  all(isinstance(x, str) for x in c)):
-            labels = [c] if isinstance(c, str) else [str(x) for x in c]
-            return self.point(labels).T, tuple(labels)
-        if sp.issparse(c):
-            c = c.toarray()
-        Cm = as_array(c, name, ndim=(1, 2))
-        if Cm.ndim == 1:
-            Cm = Cm[None, :]
-        if Cm.shape[1] != self.N:
-            raise ValueError(f"{name} must have shape (k, N={self.N}), got {Cm.shape}")
-        return Cm, None
+        return io_shapes(c, self.N, self.point, name, output=True)
 
     # --- eigen solutions ---------------------------------------------------------------
     def _scale(self) -> tuple[float, float]:
