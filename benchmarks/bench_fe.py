@@ -71,7 +71,7 @@ def main(levels: int = 261, n_modes: int = 20) -> None:
           f"DOFs) = {(t3 - t1) / (t5 - t4):.2f}")
 
     import sdctrl as sd
-    from sdctrl import testbed as tb
+    from sdctrl import testbeds as tb
 
     t7 = time.perf_counter()
     fe_tb = sd.testbed()

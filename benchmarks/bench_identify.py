@@ -29,8 +29,8 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 
 import sdctrl as sd
-from sdctrl.identify.complex_modes import frf_array
-from sdctrl.identify.optimize import IdentificationWarning
+from sdctrl.identification.complex_modes import frf_array
+from sdctrl.identification.optimize import IdentificationWarning
 
 warnings.simplefilter("ignore", IdentificationWarning)
 
@@ -194,7 +194,7 @@ def bench_noisy_auto(seeds):
     from test_identify import BAND, F_TRUE, IN_BAND, _chain_demo
     from test_identify import ten_mode as tm
 
-    from sdctrl.testbed import TESTBED_BAND
+    from sdctrl.testbeds import TESTBED_BAND
 
     print("\n== automatic pole selection on noisy data (no poles given) ==")
     cases = []

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 import sdctrl as sd
 from sdctrl.closedloop import feedback, rms, strut_controller, strut_plant
 from sdctrl.placement import placement_study
-from sdctrl.testbed import SENSORS, SHAKERS, TESTBED_BAND
+from sdctrl.testbeds import SENSORS, SHAKERS, TESTBED_BAND
 from sdctrl.testing import record_rms
 
 BAND = TESTBED_BAND                      # 8-60 Hz

@@ -27,17 +27,17 @@ _EXPORTS = {
     "save_npz": "sdctrl.io",
     "load_npz": "sdctrl.io",
     # identification (chapter III)
-    "ComplexModeModel": "sdctrl.identify",
-    "initial_poles": "sdctrl.identify",
-    "identify": "sdctrl.identify",
-    "normal_modes": "sdctrl.identify",
+    "ComplexModeModel": "sdctrl.identification",
+    "initial_poles": "sdctrl.identification",
+    "identify": "sdctrl.identification",
+    "normal_modes": "sdctrl.identification",
     # modal models
     "NormalModeModel": "sdctrl.modal",
     # finite elements
     "FEModel": "sdctrl.fe",
-    "testbed": "sdctrl.testbed",
-    "testbed_frf": "sdctrl.testbed",
-    "hybrid": "sdctrl.hybrid",
+    "testbed": "sdctrl.testbeds",
+    "testbed_frf": "sdctrl.testbeds",
+    "hybrid": "sdctrl.hybridmodel",
     # uncertainty and closed loop
     "UncertainModel": "sdctrl.uncertainty",
     "robust_stability": "sdctrl.robust",
@@ -50,8 +50,8 @@ __all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single so
 
 
 # submodules reachable as attributes (``sd.plot.bode``) without importing them up front
-_SUBMODULES = ("frf", "io", "modal", "identify", "fe", "testbed", "hybrid", "uncertainty",
-               "robust", "closedloop", "testing", "plot", "report", "update")
+_SUBMODULES = ("frf", "io", "modal", "identification", "fe", "testbeds", "hybridmodel",
+               "uncertainty", "robust", "closedloop", "testing", "plot", "report", "updating")
 
 
 def __getattr__(name: str):

@@ -78,7 +78,7 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
     measured = FRF(freq, H, "acceleration", sensors=exact.sensors, actuators=exact.actuators,
                    collocated=[(0, 0), (2, 1)])
     import sdctrl as sd
-    from sdctrl.update.costs import logls
+    from sdctrl.updating.costs import logls
 
     t1 = time.perf_counter()
     cm = sd.identify(measured, progress=False)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.update import comac, logls, mac, quadratic, relative_error
+from sdctrl.updating import comac, logls, mac, quadratic, relative_error
 
 
 def test_costs_closed_form():

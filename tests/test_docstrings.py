@@ -43,8 +43,6 @@ def _public_callables():
         except (ImportError, AttributeError) as exc:      # reported by test_public_names_resolve
             out.append((name, f"cannot import: {exc}", ["<unresolved>"]))
             continue
-        if inspect.ismodule(obj) and callable(obj):   # module callable as its function
-            obj = getattr(obj, name)
         if inspect.isclass(obj):
             fields = ([f.name for f in dataclasses.fields(obj) if f.init and f.name != "info"]
                       if dataclasses.is_dataclass(obj) else _params(obj.__init__))

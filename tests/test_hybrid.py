@@ -11,7 +11,7 @@ import scipy.sparse as sp
 from test_modal_ops import _chain
 
 import sdctrl as sd
-from sdctrl.hybrid import (
+from sdctrl.hybridmodel import (
     HybridModel,
     expand,
     hybrid,
@@ -20,8 +20,8 @@ from sdctrl.hybrid import (
     strut_feedback,
     with_io,
 )
-from sdctrl.testbed import SENSORS, SHAKERS
-from sdctrl.update.costs import logls
+from sdctrl.testbeds import SENSORS, SHAKERS
+from sdctrl.updating.costs import logls
 
 IN_BAND = np.arange(6, 18)          # testbed modes 7-18: the 8-60 Hz test band
 FREQ = np.linspace(8.0, 60.0, 250)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-import sdctrl.testbed as tb
+import sdctrl.testbeds as tb
 
 
 def _doc_table():

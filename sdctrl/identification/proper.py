@@ -22,7 +22,7 @@ import scipy.linalg as sla
 from threadpoolctl import ThreadpoolController
 
 from sdctrl._validate import check_collocated
-from sdctrl.identify.complex_modes import scale_residues
+from sdctrl.identification.complex_modes import scale_residues
 
 __all__ = ["normal_modes", "proper_modes", "scaled_modes", "transformation"]
 
@@ -123,7 +123,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     >>> bool(np.allclose(nm.poles, lam))
     True
     """
-    from sdctrl.identify.complex_modes import ComplexModeModel
+    from sdctrl.identification.complex_modes import ComplexModeModel
     from sdctrl.modal import NormalModeModel
 
     if not isinstance(cm, ComplexModeModel):

@@ -1,7 +1,7 @@
 """Complex-mode identification: pole update and automatic pole selection (thesis 3.2.1).
 
 For fixed poles the residues solve the linear least-squares problem (3.16) (see
-:mod:`sdctrl.identify.residues`); the quadratic cost (3.11) is then a function of the
+:mod:`sdctrl.identification.residues`); the quadratic cost (3.11) is then a function of the
 poles only, ``J(lambda) = ||(I - P_Phi) Y||^2`` (3.18).  Two optimisers update the poles
 (parameters ``ln omega_j`` and ``ln zeta_j``, so steps are relative):
 
@@ -23,7 +23,7 @@ real orthonormal basis (exact SVD for small sets, randomised range finder otherw
 so that the pole search costs the same for 10 or 10,000 sensors and residues stay real.
 The final residues are solved on the full data (cost linear in the number of sensors).
 
-With no poles given, :func:`identify` starts from :func:`~sdctrl.identify.initial_poles`
+With no poles given, :func:`identify` starts from :func:`~sdctrl.identification.initial_poles`
 and iterates: add a pole where the residual shows a missed mode, drop poles that do not
 converge (pushed to a bound), fit noise (half-power bandwidth below a fraction of the line
 spacing), are in-band fillers with very large damping or are not statistically
@@ -70,7 +70,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from sdctrl._validate import QUANTITY_POWER, as_array
-from sdctrl.identify.residues import (
+from sdctrl.identification.residues import (
     LSQ,
     basis,
     basis_derivatives,
@@ -715,7 +715,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         Measured FRFs (displacement, velocity or acceleration per unit force).
     poles : array_like of complex, optional
         Initial poles in rad/s (Im > 0, Re < 0).  When None, the poles are found
-        automatically: :func:`~sdctrl.identify.initial_poles` candidates (peaks of the
+        automatically: :func:`~sdctrl.identification.initial_poles` candidates (peaks of the
         summed FRF and of the first singular values of ``H(f)``, damping from the
         half-power width), then rounds of adding poles at residual peaks (missed modes),
         removing poles that do not converge, fit noise, are fillers or are not
@@ -790,8 +790,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     from tqdm.auto import tqdm
 
     from sdctrl.frf import FRF, _check_band
-    from sdctrl.identify.complex_modes import ComplexModeModel
-    from sdctrl.identify.poles import peak_candidates
+    from sdctrl.identification.complex_modes import ComplexModeModel
+    from sdctrl.identification.poles import peak_candidates
 
     if not isinstance(frf, FRF):
         raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from sdctrl._validate import QUANTITY_POWER
-from sdctrl.identify.residues import LSQ, basis
+from sdctrl.identification.residues import LSQ, basis
 
 __all__ = ["residue_std"]
 

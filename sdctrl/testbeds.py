@@ -14,7 +14,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from sdctrl._callable import make_callable
 from sdctrl._validate import check_quantity
 
 __all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "testbed", "testbed_frf"]
@@ -270,4 +269,3 @@ def testbed_frf(quantity: str = "acceleration", band=TESTBED_BAND, n: int = 1000
     return FRF(freq, H, quantity=q, sensors=SENSORS, actuators=SHAKERS, collocated=col)
 
 
-make_callable(__name__)

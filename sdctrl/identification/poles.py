@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sdctrl.identify.residues import pole_from_params
+from sdctrl.identification.residues import pole_from_params
 
 __all__ = ["indicator_functions", "initial_poles", "peak_candidates"]
 

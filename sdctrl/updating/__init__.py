@@ -1,5 +1,5 @@
 """Chapter IV of the thesis: cost functions and correlation criteria (costs.py)."""
 
-from sdctrl.update.costs import comac, logls, mac, quadratic, relative_error
+from sdctrl.updating.costs import comac, logls, mac, quadratic, relative_error
 
 __all__ = ["comac", "logls", "mac", "quadratic", "relative_error"]

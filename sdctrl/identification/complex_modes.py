@@ -273,7 +273,7 @@ class ComplexModeModel:
         ndarray, shape (n, ns, na)
             Standard deviation of each complex residue (direct part of 3.58).
         """
-        from sdctrl.identify.variance import residue_std
+        from sdctrl.identification.variance import residue_std
 
         return residue_std(self, frf, n_averages)
 

@@ -26,7 +26,6 @@ from dataclasses import dataclass, fields
 import numpy as np
 import scipy.sparse as sp
 
-from sdctrl._callable import make_callable
 from sdctrl._validate import as_array
 from sdctrl.fe.model import io_shapes
 from sdctrl.modal import NormalModeModel
@@ -240,7 +239,7 @@ def pair_modes(cphi_fe, cphi_id):
     """
     from scipy.optimize import linear_sum_assignment
 
-    from sdctrl.update.costs import mac as _mac
+    from sdctrl.updating.costs import mac as _mac
 
     macs = _mac(cphi_fe, cphi_id)
     rows, cols = linear_sum_assignment(-macs)
@@ -338,7 +337,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     Examples
     --------
     >>> import sdctrl as sd
-    >>> from sdctrl.testbed import SENSORS, SHAKERS
+    >>> from sdctrl.testbeds import SENSORS, SHAKERS
     >>> fe = sd.testbed()
     >>> nm = fe.normal_mode_model(list(SHAKERS), list(SENSORS), 18)
     >>> h = sd.hybrid(fe, nm, list(SENSORS))
@@ -649,4 +648,3 @@ def strut_feedback(model, fe, node_a: str, node_b: str, kp=0.0, kv=0.0) -> Hybri
     return _as_hybrid(model).with_feedback(s, s.T, kp=kp, kv=kv)
 
 
-make_callable(__name__)
