@@ -50,7 +50,7 @@ __all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single so
 
 
 # submodules reachable as attributes (``sd.plot.bode``) without importing them up front
-_SUBMODULES = ("frf", "io", "modal", "identification", "fe", "testbeds", "hybridmodel",
+_SUBMODULES = ("config", "frf", "io", "modal", "identification", "fe", "testbeds", "hybridmodel",
                "uncertainty", "robust", "closedloop", "testing", "plot", "report", "updating")
 
 
