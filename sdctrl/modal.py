@@ -25,7 +25,7 @@ from sdctrl._validate import (
     check_quantity,
     check_square,
     readonly,
-    signal_name,
+    signal_names,
 )
 
 __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with_feedback"]
@@ -366,8 +366,15 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
     Returns
     -------
     control.StateSpace
-        Inputs named after ``model.actuators``, outputs after ``model.sensors``
-        (``.`` replaced by ``_``).
+        Outputs named after ``model.sensors``, inputs after ``model.actuators`` followed
+        by ``_u`` (``.`` replaced by ``_``): sensor ``"N3.z"`` is output ``N3_z``, actuator
+        ``"N3.z"`` input ``N3_z_u``, so a collocated pair never shares a name.
+
+    Raises
+    ------
+    ValueError
+        Two labels of one side with the same signal name (``"a.b"`` and ``"a_b"``), or an
+        input name equal to an output name.
 
     Notes
     -----
@@ -435,10 +442,8 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
         B = np.vstack([B, Br])
         C = np.hstack([C, Cr])
         states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
-    return control.ss(A, B, C, D,
-                      inputs=[signal_name(a) for a in model.actuators],
-                      outputs=[signal_name(s) for s in model.sensors],
-                      states=states)
+    inputs, outputs = signal_names(model.sensors, model.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
 
 
 def _sym_change(x, name: str, n: int) -> np.ndarray:

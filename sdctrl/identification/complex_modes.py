@@ -19,7 +19,7 @@ from sdctrl._validate import (
     check_labels,
     check_quantity,
     readonly,
-    signal_name,
+    signal_names,
 )
 
 __all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
@@ -292,9 +292,10 @@ class ComplexModeModel:
         Returns
         -------
         control.StateSpace
-            Real ``A``, ``B``, ``C``, ``D`` with inputs/outputs named after the
-            actuators/sensors (``.`` replaced by ``_``).  For displacement the model is
-            exact (``E`` as feedthrough, ``F/s^2`` by a double integrator per actuator).
+            Real ``A``, ``B``, ``C``, ``D``; outputs named after the sensors, inputs after
+            the actuators followed by ``_u`` (``.`` replaced by ``_``).  For displacement
+            the model is exact (``E`` as feedthrough, ``F/s^2`` by a double integrator per
+            actuator).
 
         Notes
         -----
@@ -450,5 +451,5 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
         C = np.hstack([C, Ce])
         D = D + De
         states += st
-    return control.ss(A, B, C, D, inputs=[signal_name(a) for a in cm.actuators],
-                      outputs=[signal_name(s) for s in cm.sensors], states=states)
+    inputs, outputs = signal_names(cm.sensors, cm.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
