@@ -440,7 +440,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
 
 
 def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
-                    n_samples: int = 200, seed: int = 0) -> dict:
+                    n_samples: int = 200, seed: int = 0, progress: bool | None = None) -> dict:
     """Worst-case closed-loop gain from a plant input disturbance to a plant output over Delta.
 
     The disturbance ``d`` is added to the plant input (``u = -K y + d``); the gain ``|y/d|`` is
@@ -462,6 +462,8 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
         Random samples (besides vertices).
     seed : int
         Random seed.
+    progress : bool or None
+        Progress bar over the samples; None (default) follows ``sdctrl.config.progress``.
 
     Returns
     -------
@@ -482,7 +484,7 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     ds = np.vstack([np.zeros((1, nb)), verts, rng.uniform(-1, 1, (n_samples, nb))])
     worst = None
     peak, wd, nom = -np.inf, None, None
-    for d in ds:
+    for d in progress_bar(ds, desc="worst-case gain", unit="sample", enabled=progress):
         G = um.perturbed(d)
         cl = control.feedback(G, controller, sign=-1)
         H = np.abs(ss_frf(cl.A, cl.B, cl.C, cl.D, w)[:, output, input])

@@ -177,5 +177,6 @@ def test_equal_models_compare_without_raising():
     nm = sd.NormalModeModel([[4.0, 0.0], [0.0, 9.0]], [[0.1, 0.01], [0.01, 0.2]],
                             [[1.0, 0.5]], [[1.0], [0.3]])
     u1, u2 = nm.uncertain(dGamma=0.1 * abs(nm.Gamma)), nm.uncertain(dGamma=0.1 * abs(nm.Gamma))
-    assert (u1 == u2) is False and (u1 == u1) is True and u1 != u2
+    same = u1
+    assert (u1 == u2) is False and (u1 == same) is True and u1 != u2
     assert (nm == nm.replace()) is False
