@@ -70,6 +70,8 @@ class HybridModel(NormalModeModel):
         FE DOF labels of the rows of ``shapes``.
     omega_c : float, optional
         Cut-off (rad/s) of the correction mode realising ``E`` in velocity/acceleration.
+    F : array_like, shape (ns, na), optional
+        Low-frequency (residual mass) correction ``F/s^2`` of the displacement response.
     """
 
     def replace(self, **changes) -> HybridModel:

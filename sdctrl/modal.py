@@ -285,6 +285,22 @@ def poles(model: NormalModeModel) -> np.ndarray:
 
     Real (overdamped) poles are listed as well; for each underdamped mode only the
     upper half-plane pole is kept.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        The model.
+
+    Returns
+    -------
+    ndarray, complex
+
+    Examples
+    --------
+    >>> import numpy as np, sdctrl as sd
+    >>> nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.4]), [[1.0]], [[1.0]])
+    >>> np.round(poles(nm), 4)
+    array([-0.2+1.99j])
     """
     n = model.n
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])

@@ -319,6 +319,13 @@ def scale_residues(residues, pairs):
     least-squares compromise over the pairs.  Modes with ``z_j = 0`` get NaN scalings.
     Internal: inputs are trusted; callers decide how to report unscalable modes.
 
+    Parameters
+    ----------
+    residues : array_like, shape (n, ns, na), complex
+        Residues of the complex-mode model.
+    pairs : sequence of (int, int)
+        Collocated (sensor, actuator) index pairs.
+
     Returns
     -------
     cpsi : ndarray, shape (ns, n)
@@ -351,7 +358,25 @@ def scale_residues(residues, pairs):
 
 
 def frf_array(poles, residues, E, F, s) -> np.ndarray:
-    """Displacement FRF (ns x na per line) of (3.7) at Laplace points ``s`` (rad/s)."""
+    """Displacement FRF (ns x na per line) of (3.7) at Laplace points ``s`` (rad/s).
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n,)
+        Poles (rad/s), upper half-plane.
+    residues : ndarray, shape (n, ns, na), complex
+        Residues.
+    E : ndarray, shape (ns, na)
+        Residual flexibility.
+    F : ndarray, shape (ns, na) or None
+        Residual mass term ``F/s^2``.
+    s : ndarray, shape (nf,)
+        Laplace points ``j w`` (rad/s).
+
+    Returns
+    -------
+    ndarray, shape (nf, ns, na), complex
+    """
     g = 1.0 / (s[:, None] - poles[None, :])             # (nf, n)
     gc = 1.0 / (s[:, None] - poles.conj()[None, :])
     H = np.einsum("wn,nij->wij", g, residues) + np.einsum("wn,nij->wij", gc, residues.conj())
@@ -365,7 +390,21 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
                   omega_c: float | None = None):
     """Real 2x2-block state-space form (3.26)-(3.33) of a complex-mode model.
 
-    See :meth:`ComplexModeModel.to_statespace` (parameters and notes).
+    See :meth:`ComplexModeModel.to_statespace` (notes).
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The model.
+    quantity : {"displacement", "velocity", "acceleration"}
+        Output quantity.
+    omega_c : float, optional
+        Cut-off (rad/s) of the correction filter of the improper terms.
+
+    Returns
+    -------
+    control.StateSpace
+        Outputs named after the sensors, inputs after the actuators followed by ``_u``.
     """
     import control
 
