@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
     as_array,
@@ -130,6 +131,25 @@ class NormalModeModel:
         sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
         sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
         sets(self, "info", dict(self.info))
+
+    # --- display ------------------------------------------------------------------
+    def __repr__(self) -> str:
+        G = self.Gamma
+        full = self.n > 1 and np.count_nonzero(G - np.diag(np.diag(G))) > 0
+        return one_line(type(self).__name__, [
+            f"n={self.n}", f"ns={self.ns}", f"na={self.na}", f"band={hz_range(self.frequency)}",
+            "full Gamma" if full else "", "E" if self.E is not None else "",
+            "F" if self.F is not None else "",
+            "" if self.shapes is None else f"shapes on {self.shapes.shape[0]} DOFs"])
+
+    def _repr_markdown_(self) -> str:
+        w = 2 * np.pi * self.frequency
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zeta = np.where(w > 0, np.diag(self.Gamma) / (2 * w), np.nan)
+        rows = [(j + 1, f"{self.frequency[j]:.4g}", f"{100 * zeta[j]:.3g}")
+                for j in range(self.n)]
+        return (f"`{self!r}`\n\n" + markdown_table(
+            ["mode", "frequency (Hz)", "damping (%) Gamma_jj / 2 w_j"], rows, MAX_ROWS))
 
     # --- sizes and modal data -----------------------------------------------------
     @property

@@ -212,6 +212,9 @@ class RMSSnapshot:
         self.path = pathlib.Path(path)
         self.update = bool(update)
 
+    def __repr__(self) -> str:
+        return f"RMSSnapshot({str(self.path)!r}, update={self.update})"
+
     def _file(self, name):
         if name is None:
             return self.path

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sdctrl._statespace import ss_frf
+from sdctrl._util import MAX_ROWS, markdown_table, one_line
 from sdctrl._validate import check_freq, signal_names
 
 __all__ = [
@@ -71,6 +72,22 @@ class UncertainModel:
     db: np.ndarray
     dc: np.ndarray
     params: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        kinds = {}
+        for _, (kind, _i, _j), _r, _b in self.params:
+            kinds[kind] = kinds.get(kind, 0) + 1
+        what = ", ".join(f"{k} {v}" for k, v in kinds.items())
+        m = self.model
+        return one_line("UncertainModel", [
+            f"n={m.n}", f"ns={m.ns}", f"na={m.na}",
+            f"{len(self.params)} uncertain parameters" + (f" ({what})" if what else ""),
+            f"{sum(p[2] for p in self.params)} Delta channels"])
+
+    def _repr_markdown_(self) -> str:
+        rows = [(name, rep, f"{beta:.3g}") for name, _, rep, beta in self.params]
+        return f"`{self!r}`\n\n" + markdown_table(["block", "repetition", "bound"], rows,
+                                                     MAX_ROWS)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -431,6 +448,12 @@ class MultiTestResult:
     bounds: dict
     tables: dict
     aligned: list
+
+    def __repr__(self) -> str:
+        mac = np.asarray(self.tables.get("mac", np.ones(1)))
+        return one_line("MultiTestResult", [
+            f"{len(self.aligned)} models", f"n={self.mean.n}", f"ns={self.mean.ns}",
+            f"na={self.mean.na}", f"min MAC={mac.min():.3f}" if mac.size else ""])
 
 
 def _align(ref, m):

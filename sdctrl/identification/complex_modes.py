@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
     as_array,
@@ -98,6 +99,21 @@ class ComplexModeModel:
         sets(self, "collocated", check_collocated(self.collocated, ns, na, "collocated",
                                                   sensors, actuators))
         sets(self, "info", dict(self.info))
+
+    # --- display --------------------------------------------------------------------
+    def __repr__(self) -> str:
+        nin = int(np.count_nonzero(self.in_band))
+        return one_line("ComplexModeModel", [
+            f"n={self.n}", f"ns={self.ns}", f"na={self.na}", hz_range(self.frequency),
+            f"{nin} in band" if nin < self.n else "",
+            "" if self.band is None else f"band={hz_range(self.band)}",
+            "" if np.isnan(self.cost) else f"cost={self.cost:.3g}"])
+
+    def _repr_markdown_(self) -> str:
+        rows = [(j + 1, f"{self.frequency[j]:.4g}", f"{100 * self.damping[j]:.3g}",
+                 "yes" if self.in_band[j] else "no") for j in range(self.n)]
+        return (f"`{self!r}`\n\n" + markdown_table(
+            ["mode", "frequency (Hz)", "damping (%)", "in band"], rows, MAX_ROWS))
 
     # --- sizes and modal data -------------------------------------------------------
     @property
