@@ -141,9 +141,152 @@ def check_collocated(collocated, ns: int, na: int, name: str = "collocated",
     return tuple(out)
 
 
+class BandError(TypeError, ValueError):
+    """A band that is not a pair of numbers: both a ``TypeError`` (wrong kind of argument)
+    and a ``ValueError`` (bad value), so callers catching either keep working (in the
+    manner of numpy's ``AxisError``, a ``ValueError`` and an ``IndexError``)."""
+
+
+def check_band(band, name: str = "band", *, infinite: bool = False) -> tuple[float, float]:
+    """The one band checker: ``(fmin, fmax)`` in Hz with ``0 <= fmin < fmax``.
+
+    Parameters
+    ----------
+    band : (float, float)
+        Frequency band in Hz.
+    name : str
+        Argument name used in error messages.
+    infinite : bool
+        Accept ``fmax = inf`` (integrals over ``(fmin, inf)``); otherwise ``fmax`` must be
+        finite.
+
+    Returns
+    -------
+    (float, float)
+
+    Raises
+    ------
+    BandError
+        ``band`` is not a pair of numbers (a ``TypeError`` and a ``ValueError``).
+    ValueError
+        Negative or non-finite ``fmin``, infinite ``fmax`` when not allowed, NaN, or an
+        empty band ``fmin >= fmax``.
+    """
+    try:
+        lo, hi = (float(v) for v in band)
+    except (TypeError, ValueError):
+        raise BandError(f"{name} must be a pair (fmin, fmax) in Hz, got {band!r}") from None
+    if np.isnan(lo) or np.isnan(hi) or not np.isfinite(lo):
+        raise ValueError(f"{name} must hold finite frequencies (Hz), got ({lo}, {hi})")
+    if np.isinf(hi) and not infinite:
+        raise ValueError(f"{name} must be finite, got ({lo:g}, {hi:g})")
+    if lo < 0:
+        raise ValueError(f"{name} must satisfy 0 <= fmin (Hz), got ({lo:g}, {hi:g})")
+    if not lo < hi:
+        raise ValueError(f"{name} must satisfy fmin < fmax (Hz), got ({lo:g}, {hi:g}): "
+                         "empty band")
+    return lo, hi
+
+
+# ----------------------------------------------------------------------------------------
+# python-control signal names
+# ----------------------------------------------------------------------------------------
+#: suffix of input signal names (API.md): actuator ``"N3.z"`` is input ``N3_z_u``
+INPUT_SUFFIX = "_u"
+
+
 def signal_name(label: str) -> str:
-    """python-control signal name for a label: '.' (refused by python-control) becomes '_'."""
-    return str(label).replace(".", "_")
+    """python-control signal name of a label.
+
+    python-control 0.10 refuses ``.`` in a signal name (it separates system and signal in
+    ``interconnect`` references), so each ``.`` becomes ``_``; a leading ``-`` (read as a
+    negative gain in those references) becomes ``_`` too.  ``"N42.y"`` -> ``"N42_y"``.
+    """
+    name = str(label).replace(".", "_")
+    return "_" + name[1:] if name.startswith("-") else name
+
+
+def _unique(names: list[str], labels, what: str) -> None:
+    seen: dict[str, object] = {}
+    for name, lab in zip(names, labels):
+        if name in seen:
+            raise ValueError(f"{what}: labels {seen[name]!r} and {lab!r} both become the signal "
+                             f"name {name!r} (python-control signal names replace '.' by '_'); "
+                             "rename one of them")
+        seen[name] = lab
+
+
+def signal_names(sensors, actuators, *, sensors_name: str = "sensors",
+                 actuators_name: str = "actuators", extra_inputs=(), extra_outputs=()
+                 ) -> tuple[list[str], list[str]]:
+    """Input and output signal names of a StateSpace sdctrl emits (API.md "Conventions").
+
+    Outputs are the sensor labels, inputs the actuator labels followed by ``_u``, both
+    through :func:`signal_name`.  Colliding labels raise instead of being renamed, so that
+    every name stays predictable from its label: python-control's ``interconnect`` joins
+    equal names silently, and a system that lost a name would be joined wrongly.
+
+    Parameters
+    ----------
+    sensors, actuators : sequence of str
+        Output and input labels.
+    sensors_name, actuators_name : str
+        Argument names used in error messages.
+    extra_inputs, extra_outputs : sequence of str
+        Signal names placed before the labelled ones (e.g. the Delta channels of an LFT),
+        checked for collisions too.
+
+    Returns
+    -------
+    inputs, outputs : list of str
+
+    Raises
+    ------
+    ValueError
+        Two labels of one side map to the same name (``"a.b"`` and ``"a_b"``), or an input
+        and an output share a name (sensor ``"f_u"`` and actuator ``"f"``).
+    """
+    inputs = list(extra_inputs) + [signal_name(a) + INPUT_SUFFIX for a in actuators]
+    outputs = list(extra_outputs) + [signal_name(s) for s in sensors]
+    _unique(inputs, list(extra_inputs) + list(actuators), actuators_name)
+    _unique(outputs, list(extra_outputs) + list(sensors), sensors_name)
+    both = sorted(set(inputs) & set(outputs))
+    if both:
+        raise ValueError(f"{sensors_name}, {actuators_name}: signal name {both[0]!r} would be "
+                         "both an input and an output (python-control's interconnect would "
+                         "join them into a loop); rename the label")
+    return inputs, outputs
+
+
+def as_statespace(sys, name: str = "sys"):
+    """A continuous-time ``control.StateSpace`` from a StateSpace, a transfer function or
+    any sdctrl model with ``to_statespace()`` (displacement outputs).
+
+    Parameters
+    ----------
+    sys : control.StateSpace, control.TransferFunction or model
+        The system.
+    name : str
+        Argument name used in error messages.
+
+    Returns
+    -------
+    control.StateSpace
+    """
+    import control
+
+    if isinstance(sys, control.StateSpace):
+        G = sys
+    elif isinstance(sys, control.TransferFunction):
+        G = control.ss(sys)
+    elif hasattr(sys, "to_statespace"):
+        G = sys.to_statespace()
+    else:
+        raise TypeError(f"{name} must be a control.StateSpace, a TransferFunction or a model "
+                        f"with to_statespace(), got {type(sys).__name__}")
+    if G.dt not in (0, None):
+        raise ValueError(f"{name} must be a continuous-time system, got dt={G.dt}")
+    return G
 
 
 def readonly(arr: np.ndarray | None) -> np.ndarray | None:

@@ -19,7 +19,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from sdctrl._validate import as_array, signal_name
+from sdctrl._validate import as_array, as_statespace, check_band, signal_name, signal_names
 
 __all__ = ["feedback", "modal_damping", "rate_outputs", "rms", "strut_controller",
            "strut_plant"]
@@ -28,37 +28,6 @@ __all__ = ["feedback", "modal_damping", "rate_outputs", "rms", "strut_controller
 # ----------------------------------------------------------------------------------------
 # helpers
 # ----------------------------------------------------------------------------------------
-def _as_ss(sys, name: str = "sys"):
-    """A continuous-time ``control.StateSpace`` from a StateSpace, a transfer function or
-    any sdctrl model with ``to_statespace()`` (displacement outputs)."""
-    import control
-
-    if isinstance(sys, control.StateSpace):
-        G = sys
-    elif isinstance(sys, control.TransferFunction):
-        G = control.ss(sys)
-    elif hasattr(sys, "to_statespace"):
-        G = sys.to_statespace()
-    else:
-        raise TypeError(f"{name} must be a control.StateSpace, a TransferFunction or a model "
-                        f"with to_statespace(), got {type(sys).__name__}")
-    if G.dt not in (0, None):
-        raise ValueError(f"{name} must be a continuous-time system, got dt={G.dt}")
-    return G
-
-
-def _band(band, name: str = "band") -> tuple[float, float]:
-    """(lo, hi) in Hz with 0 <= lo < hi, hi possibly inf."""
-    try:
-        lo, hi = (float(v) for v in band)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a pair (fmin, fmax) in Hz, got {band!r}") from None
-    if not np.isfinite(lo) or np.isnan(hi) or lo < 0 or hi <= lo:
-        raise ValueError(f"{name} must satisfy 0 <= fmin < fmax (fmax may be inf), got "
-                         f"({lo:g}, {hi:g})")
-    return lo, hi
-
-
 def _psd(psd, nu: int) -> np.ndarray:
     S = as_array(psd, "psd", ndim=(0, 1))
     if S.ndim == 0:
@@ -195,8 +164,8 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     >>> bool(np.isclose(full, np.sqrt(1 / (2 * 2 * 0.2))))
     True
     """
-    G = _as_ss(sys)
-    lo, hi = _band(band)
+    G = as_statespace(sys)
+    lo, hi = check_band(band, infinite=True)
     A, B, C, D = _mats(G)
     S = _psd(psd, B.shape[1])
     _check_stable(A)
@@ -243,13 +212,13 @@ def modal_damping(sys, band=None):
     if hasattr(sys, "poles") and not callable(sys.poles):
         p = np.asarray(sys.poles)
     else:
-        p = np.asarray(_as_ss(sys).poles())
+        p = np.asarray(as_statespace(sys).poles())
         p = p[p.imag >= -1e-12 * max(np.abs(p).max(initial=0.0), 1.0)]
     f = np.abs(p) / (2 * np.pi)
     with np.errstate(invalid="ignore", divide="ignore"):
         z = np.where(np.abs(p) > 0, -p.real / np.abs(p), 1.0)
     if band is not None:
-        lo, hi = _band(band)
+        lo, hi = check_band(band, infinite=True)
         keep = (f >= lo) & (f <= hi)
         f, z = f[keep], z[keep]
     order = np.argsort(f)
@@ -299,16 +268,16 @@ def feedback(plant, controller, sign: float = -1.0, *, control_outputs: bool = F
     --------
     >>> import control
     >>> P = control.ss([[0, 1], [-1, -0.02]], [[0], [1]], [[1, 0]], 0,
-    ...                inputs=["f"], outputs=["x"])
-    >>> K = control.ss([], [], [], [[3.0]], inputs=["x"], outputs=["f"])
+    ...                inputs=["x_u"], outputs=["x"])          # sdctrl's names
+    >>> K = control.ss([], [], [], [[3.0]], inputs=["x"], outputs=["x_u"])
     >>> cl = feedback(P, K)
     >>> cl.input_labels, cl.output_labels
-    (['f'], ['x'])
+    (['x_u'], ['x'])
     """
     import control
 
-    P = _as_ss(plant, "plant")
-    K = _as_ss(controller, "controller")
+    P = as_statespace(plant, "plant")
+    K = as_statespace(controller, "controller")
     if sign not in (-1, 1, -1.0, 1.0):
         raise ValueError(f"sign must be -1 or +1, got {sign!r}")
     pin, pout = list(P.input_labels), list(P.output_labels)
@@ -367,7 +336,7 @@ def rate_outputs(sys, outputs=None):
     """
     import control
 
-    G = _as_ss(sys)
+    G = as_statespace(sys)
     A, B, C, D = _mats(G)
     names = list(G.output_labels)
     if outputs is None:
@@ -383,14 +352,17 @@ def rate_outputs(sys, outputs=None):
         raise ValueError("outputs: a differentiated output has a feedthrough D, its rate is "
                          "not proper")
     Cs = C[sel]
+    rates = [f"{names[i]}_dot" for i in sel]
+    clash = sorted(set(rates) & (set(names) | set(G.input_labels)))
+    if clash:
+        raise ValueError(f"outputs: the rate name {clash[0]!r} is already a signal of sys")
     return control.ss(A, B, np.vstack([C, Cs @ A]), np.vstack([D, Cs @ B]),
-                      inputs=list(G.input_labels),
-                      outputs=names + [f"{names[i]}_dot" for i in sel],
+                      inputs=list(G.input_labels), outputs=names + rates,
                       states=list(G.state_labels))
 
 
 def strut_plant(model, b, name: str = "strut"):
-    """StateSpace of ``model`` with a strut channel added: input ``name`` (axial force
+    """StateSpace of ``model`` with a strut channel added: input ``name_u`` (axial force
     ``b``), outputs ``name`` (relative extension ``b^T q``) and ``name_dot`` (its rate).
 
     Parameters
@@ -400,13 +372,14 @@ def strut_plant(model, b, name: str = "strut"):
     b : array_like, shape (N,) or (N, 1)
         Strut input shape on the DOFs of ``model.shapes`` (:meth:`FEModel.strut`).
     name : str
-        Signal name of the strut channel.
+        Label of the strut channel (a sensor and an actuator label of the model).
 
     Returns
     -------
     control.StateSpace
-        Inputs ``model.actuators + [name]``, outputs ``model.sensors + [name, name_dot]``
-        (displacement), ready for :func:`feedback` with :func:`strut_controller`.
+        Inputs ``model`` 's inputs and ``name_u``, outputs its outputs and ``name``,
+        ``name_dot`` (displacement; ``.`` in ``name`` becomes ``_`` as in every signal name),
+        ready for :func:`feedback` with :func:`strut_controller`.
     """
     from sdctrl.modal import NormalModeModel
 
@@ -441,19 +414,19 @@ def strut_controller(kp=0.0, kv=0.0, name: str = "strut"):
     kv : float
         Velocity gain (N s/m).
     name : str
-        Strut channel name used in :func:`strut_plant`.
+        Strut channel label used in :func:`strut_plant`.
 
     Returns
     -------
     control.StateSpace
-        Inputs ``[name, name_dot]``, output ``[name]``; :func:`feedback` applies
-        ``F = -kp y - kv y'``.
+        Inputs ``[name, name_dot]`` (the strut plant's outputs), output ``name_u`` (its
+        force input); :func:`feedback` applies ``F = -kp y - kv y'``.
     """
     import control
 
     kp, kv = float(kp), float(kv)
     if not (np.isfinite(kp) and np.isfinite(kv)):
         raise ValueError("kp and kv must be finite gains")
-    n = signal_name(name)
+    (force,), (extension,) = signal_names([name], [name])
     return control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[kp, kv]],
-                      inputs=[n, f"{n}_dot"], outputs=[n], name="dstrut")
+                      inputs=[extension, f"{extension}_dot"], outputs=[force], name="dstrut")

@@ -13,9 +13,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from sdctrl._statespace import ss_frf
 from sdctrl._validate import (
+    INPUT_SUFFIX,
     QUANTITY_POWER,
     as_array,
+    check_band,
     check_collocated,
     check_freq,
     check_labels,
@@ -23,7 +26,7 @@ from sdctrl._validate import (
     readonly,
 )
 
-__all__ = ["FRF", "estimate_frf", "ss_frf"]
+__all__ = ["FRF", "estimate_frf"]
 
 
 class FRF:
@@ -153,7 +156,7 @@ class FRF:
         FRF
             A new FRF with the lines inside the band.
         """
-        fmin, fmax = _check_band((fmin, fmax), "band")
+        fmin, fmax = check_band((fmin, fmax), "band")
         keep = (self.freq >= fmin) & (self.freq <= fmax)
         if not np.any(keep):
             raise ValueError(f"band ({fmin:g}, {fmax:g}) Hz contains no frequency line "
@@ -222,6 +225,8 @@ class FRF:
         Returns
         -------
         FRF
+            Sensors are the system's output names; actuators its input names without the
+            ``_u`` suffix sdctrl gives inputs (kept when some input lacks it).
         """
         f = check_freq(freq, "freq")
         q = check_quantity(quantity, "quantity")
@@ -243,7 +248,18 @@ class FRF:
             raise ValueError("sys must be a continuous-time system (dt = 0)")
         H = ss_frf(sys.A, sys.B, sys.C, sys.D, 2 * np.pi * f)
         return cls(f, H, quantity=q, sensors=list(sys.output_labels),
-                   actuators=list(sys.input_labels))
+                   actuators=_actuator_labels(sys.input_labels))
+
+
+def _actuator_labels(inputs) -> list[str]:
+    """Actuator labels of StateSpace inputs: sdctrl's ``_u`` suffix (API.md) is dropped when
+    every input carries it and the labels stay unique, else the names are kept."""
+    names = [str(n) for n in inputs]
+    if names and all(n.endswith(INPUT_SUFFIX) and len(n) > len(INPUT_SUFFIX) for n in names):
+        stripped = [n[:-len(INPUT_SUFFIX)] for n in names]
+        if len(set(stripped)) == len(stripped):
+            return stripped
+    return names
 
 
 def _indices(sel, labels, name) -> list[int]:
@@ -265,58 +281,6 @@ def _indices(sel, labels, name) -> list[int]:
             raise TypeError(f"{name} must hold labels or integer indices, got {item!r}")
     if not out:
         raise ValueError(f"{name} selects no channel")
-    return out
-
-
-def _check_band(band, name: str = "band") -> tuple[float, float]:
-    try:
-        lo, hi = (float(b) for b in band)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be a pair (fmin, fmax) in Hz, got {band!r}") from exc
-    if not (np.isfinite(lo) and np.isfinite(hi)):
-        raise ValueError(f"{name} must be finite, got ({lo}, {hi})")
-    if not lo < hi:
-        raise ValueError(f"{name} must satisfy fmin < fmax (Hz), got ({lo:g}, {hi:g}): empty band")
-    if hi <= 0:
-        raise ValueError(f"{name} must reach positive frequencies, got ({lo:g}, {hi:g})")
-    return lo, hi
-
-
-def ss_frf(A, B, C, D, omega) -> np.ndarray:
-    """``C (j w I - A)^-1 B + D`` for every ``w`` in ``omega`` (rad/s), shape (nw, ny, nu).
-
-    Uses a diagonalisation of ``A`` when its eigenvectors are well conditioned
-    (one ``O(n^3)`` step, then ``O(nw n ny nu)``), otherwise a batched solve.
-    """
-    A = np.asarray(A)
-    B = np.asarray(B)
-    C = np.asarray(C)
-    D = np.asarray(D)
-    s = 1j * np.asarray(omega, dtype=float)
-    n = A.shape[0]
-    H = np.broadcast_to(D, (s.size,) + D.shape).astype(complex)
-    if n == 0:
-        return H.copy()
-    lam, V = np.linalg.eig(A)
-    cond = np.linalg.cond(V)
-    if np.isfinite(cond) and cond < 1e5:
-        CV = C @ V
-        VB = np.linalg.solve(V, B)
-        inv = 1.0 / (s[:, None] - lam[None, :])          # (nw, n)
-        return H + np.einsum("in,wn,nj->wij", CV, inv, VB, optimize=True)
-    # robust path: Hessenberg form, then one batched solve per chunk of frequencies
-    from scipy.linalg import hessenberg
-    Hh, Q = hessenberg(A, calc_q=True)
-    QB = Q.T @ B
-    CQ = C @ Q
-    eye = np.eye(n)
-    out = np.empty_like(H)
-    chunk = max(1, int(2e7 // max(n * n, 1)))
-    for i in range(0, s.size, chunk):
-        ss = s[i:i + chunk]
-        Z = ss[:, None, None] * eye - Hh
-        X = np.linalg.solve(Z, np.broadcast_to(QB, (ss.size,) + QB.shape))
-        out[i:i + chunk] = CQ @ X + D
     return out
 
 

@@ -40,7 +40,7 @@ MAC_POOR = 0.8
 # ----------------------------------------------------------------------------------------
 # the model
 # ----------------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)      # the concise repr of NormalModeModel
 class HybridModel(NormalModeModel):
     """Normal-mode model whose shapes live on FE DOFs (hybrid model 5.1).
 
@@ -70,6 +70,8 @@ class HybridModel(NormalModeModel):
         FE DOF labels of the rows of ``shapes``.
     omega_c : float, optional
         Cut-off (rad/s) of the correction mode realising ``E`` in velocity/acceleration.
+    F : array_like, shape (ns, na), optional
+        Low-frequency (residual mass) correction ``F/s^2`` of the displacement response.
     """
 
     def replace(self, **changes) -> HybridModel:
@@ -88,6 +90,12 @@ class HybridModel(NormalModeModel):
         kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
         kw.update(changes)
         return type(self)(**kw)
+
+    def _repr_markdown_(self) -> str:
+        md = super()._repr_markdown_()
+        if self.info.get("pairing") is None:
+            return md
+        return md + "\n\n**FE/test mode pairing**\n\n" + pairing_report(self)
 
     def with_io(self, b=None, c=None, *, actuators=None, sensors=None) -> HybridModel:
         """Model with new inputs and/or outputs given on the FE DOFs; see :func:`with_io`.

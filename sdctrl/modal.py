@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
     as_array,
@@ -25,7 +26,7 @@ from sdctrl._validate import (
     check_quantity,
     check_square,
     readonly,
-    signal_name,
+    signal_names,
 )
 
 __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with_feedback"]
@@ -130,6 +131,25 @@ class NormalModeModel:
         sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
         sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
         sets(self, "info", dict(self.info))
+
+    # --- display ------------------------------------------------------------------
+    def __repr__(self) -> str:
+        G = self.Gamma
+        full = self.n > 1 and np.count_nonzero(G - np.diag(np.diag(G))) > 0
+        return one_line(type(self).__name__, [
+            f"n={self.n}", f"ns={self.ns}", f"na={self.na}", f"band={hz_range(self.frequency)}",
+            "full Gamma" if full else "", "E" if self.E is not None else "",
+            "F" if self.F is not None else "",
+            "" if self.shapes is None else f"shapes on {self.shapes.shape[0]} DOFs"])
+
+    def _repr_markdown_(self) -> str:
+        w = 2 * np.pi * self.frequency
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zeta = np.where(w > 0, np.diag(self.Gamma) / (2 * w), np.nan)
+        rows = [(j + 1, f"{self.frequency[j]:.4g}", f"{100 * zeta[j]:.3g}")
+                for j in range(self.n)]
+        return (f"`{self!r}`\n\n" + markdown_table(
+            ["mode", "frequency (Hz)", "damping (%) Gamma_jj / 2 w_j"], rows, MAX_ROWS))
 
     # --- sizes and modal data -----------------------------------------------------
     @property
@@ -285,6 +305,22 @@ def poles(model: NormalModeModel) -> np.ndarray:
 
     Real (overdamped) poles are listed as well; for each underdamped mode only the
     upper half-plane pole is kept.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        The model.
+
+    Returns
+    -------
+    ndarray, complex
+
+    Examples
+    --------
+    >>> import numpy as np, sdctrl as sd
+    >>> nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.4]), [[1.0]], [[1.0]])
+    >>> np.round(poles(nm), 4)
+    array([-0.2+1.99j])
     """
     n = model.n
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
@@ -366,8 +402,15 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
     Returns
     -------
     control.StateSpace
-        Inputs named after ``model.actuators``, outputs after ``model.sensors``
-        (``.`` replaced by ``_``).
+        Outputs named after ``model.sensors``, inputs after ``model.actuators`` followed
+        by ``_u`` (``.`` replaced by ``_``): sensor ``"N3.z"`` is output ``N3_z``, actuator
+        ``"N3.z"`` input ``N3_z_u``, so a collocated pair never shares a name.
+
+    Raises
+    ------
+    ValueError
+        Two labels of one side with the same signal name (``"a.b"`` and ``"a_b"``), or an
+        input name equal to an output name.
 
     Notes
     -----
@@ -435,10 +478,8 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
         B = np.vstack([B, Br])
         C = np.hstack([C, Cr])
         states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
-    return control.ss(A, B, C, D,
-                      inputs=[signal_name(a) for a in model.actuators],
-                      outputs=[signal_name(s) for s in model.sensors],
-                      states=states)
+    inputs, outputs = signal_names(model.sensors, model.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
 
 
 def _sym_change(x, name: str, n: int) -> np.ndarray:

@@ -13,10 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl._progress import progress_bar
+from sdctrl._validate import check_band
+
 __all__ = ["Candidate", "PlacementStudy", "placement_study"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Candidate:
     """One strut location of a :class:`PlacementStudy`.
 
@@ -43,8 +46,13 @@ class Candidate:
     reduction: np.ndarray
     score: float
 
+    def __repr__(self) -> str:
+        return (f"Candidate(bar={self.bar[0]}-{self.bar[1]}, score={self.score:.4g}, "
+                f"mean RMS reduction={100 * np.mean(self.reduction):.1f} %, "
+                f"min damping={100 * np.min(self.damping):.2f} %)")
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, eq=False)
 class PlacementStudy:
     """Ranked result of :func:`placement_study` (best candidate first).
 
@@ -83,6 +91,16 @@ class PlacementStudy:
     criterion: str
     skipped: tuple = ()
 
+    def __repr__(self) -> str:
+        best = f", best={self.best.bar[0]}-{self.best.bar[1]}" if self.candidates else ""
+        return (f"PlacementStudy({len(self.candidates)} candidates{best}, "
+                f"band={self.band[0]:g}-{self.band[1]:g} Hz, {len(self.outputs)} outputs, "
+                f"kv={self.kv:g}, kp={self.kp:g}, criterion={self.criterion!r}, "
+                f"{len(self.skipped)} skipped)")
+
+    def _repr_markdown_(self) -> str:
+        return self.table()
+
     @property
     def best(self) -> Candidate:
         """The best candidate."""
@@ -120,7 +138,7 @@ def _track(p_open: np.ndarray, p_closed: np.ndarray) -> np.ndarray:
 
 
 def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, psd=1.0,
-                    criterion: str = "rms", progress: bool = True) -> PlacementStudy:
+                    criterion: str = "rms", progress: bool | None = None) -> PlacementStudy:
     """Rank candidate bars for a D-strut by closed-loop damping and RMS reduction.
 
     For each bar ``(a, b)``: ``s = fe.strut(a, b)``, the loop ``F = -kv s^T q' - kp s^T q``
@@ -151,8 +169,9 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     criterion : {"rms", "damping"}
         Score: mean relative RMS reduction over the outputs, or the smallest closed-loop
         damping ratio of the band's modes.
-    progress : bool
-        Show a tqdm progress bar over the candidates.
+    progress : bool or None
+        Progress bar over the candidates; None (default) follows ``sdctrl.config.progress``
+        (shown only on a terminal or in a notebook).
 
     Returns
     -------
@@ -167,9 +186,7 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
         No shapes on ``fe.dofs``, unknown outputs, bad band, no mode in the band, no
         candidate.
     """
-    from tqdm.auto import tqdm
-
-    from sdctrl.closedloop import _band, rms
+    from sdctrl.closedloop import rms
     from sdctrl.fe import FEModel
     from sdctrl.modal import NormalModeModel
 
@@ -179,9 +196,7 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
         raise TypeError(f"fe must be an FEModel, got {type(fe).__name__}")
     if model.shapes is None or model.shapes.shape[0] != fe.N:
         raise ValueError(f"model must have shapes on the DOFs of fe (N={fe.N})")
-    lo, hi = _band(band)
-    if not np.isfinite(hi):
-        raise ValueError("band must be finite for a placement study")
+    lo, hi = check_band(band)
     if criterion not in ("rms", "damping"):
         raise ValueError(f"criterion must be 'rms' or 'damping', got {criterion!r}")
     kv, kp = float(kv), float(kp)
@@ -216,7 +231,7 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
         raise ValueError(f"band: no mode of the model between {lo:g} and {hi:g} Hz")
     rms_open = measure(model)
     results, skipped = [], []
-    for bar in tqdm(candidates, disable=not progress, desc="D-strut placement", unit="bar"):
+    for bar in progress_bar(candidates, desc="D-strut placement", unit="bar", enabled=progress):
         try:
             s = fe.strut(*bar)
         except ValueError as exc:

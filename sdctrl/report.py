@@ -4,26 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._util import markdown_table
+
 __all__ = ["markdown_table", "modes_table"]
-
-
-def markdown_table(header, rows) -> str:
-    """Markdown table from a header and rows of already formatted cells.
-
-    Parameters
-    ----------
-    header : sequence of str
-        Column titles.
-    rows : sequence of sequence
-        Cells, converted with ``str``.
-
-    Returns
-    -------
-    str
-    """
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines)
 
 
 def modes_table(poles, reference=None) -> str:

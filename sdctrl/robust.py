@@ -12,6 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from sdctrl._progress import progress_bar
+from sdctrl._statespace import ss_frf
+
 __all__ = [
     "RobustResult",
     "certify_dg",
@@ -22,7 +25,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RobustResult:
     """Result of :func:`robust_stability`.
 
@@ -54,6 +57,11 @@ class RobustResult:
     mu_freq: np.ndarray
     mu: np.ndarray
     info: dict
+
+    def __repr__(self) -> str:
+        return (f"RobustResult(margin={self.margin:.4g}, margin_lower={self.margin_lower:.4g}, "
+                f"stable={self.stable}, frequency={self.frequency:.4g} Hz, "
+                f"{len(self.worst_delta)} blocks, {len(self.mu_freq)} frequencies)")
 
 
 def closed_loop_lft(um, controller):
@@ -98,7 +106,6 @@ def closed_loop_lft(um, controller):
 
 
 def _frf(A, B, C, D, w):
-    from .frf import ss_frf
     return ss_frf(A, B, C, D, np.asarray(w, float))
 
 
@@ -308,7 +315,7 @@ def _stab_along(Acl, Bcl, Ccl, Dcl, expand, direction, amax, n_grid=40):
 
 
 def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions: int = 20,
-                     seed: int = 0, progress: bool = False) -> RobustResult:
+                     seed: int = 0, progress: bool | None = None) -> RobustResult:
     """Robust stability margin of ``u = -K y`` over the structured uncertainty (5.5).
 
     Parameters
@@ -327,14 +334,14 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
         Random directions tried by the lower-bound search (besides the box vertices).
     seed : int
         Random seed of the lower-bound search.
-    progress : bool
-        Show a tqdm progress bar over frequencies.
+    progress : bool or None
+        Progress bar over the frequencies of the upper bound; None (default) follows
+        ``sdctrl.config.progress`` (shown only on a terminal or in a notebook).
 
     Returns
     -------
     RobustResult
     """
-    from tqdm import tqdm
     Acl, Bcl, Ccl, Dcl = closed_loop_lft(um, controller)
     ev = np.linalg.eigvals(Acl)
     stable = bool(np.all(ev.real < 0))
@@ -401,7 +408,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
         out = np.zeros(len(ws))
         cheap = np.array([np.linalg.norm(M, 2) for M in Ms]) * np.sqrt(1 + eps ** 2) * (1 + eps)
         order = np.argsort(-cheap)
-        for i in tqdm(order, disable=not progress, desc="mu upper bound"):
+        for i in progress_bar(order, desc="mu upper bound", unit="freq", enabled=progress):
             if cheap[i] <= cur:
                 out[i] = cheap[i]
                 continue
@@ -433,7 +440,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
 
 
 def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
-                    n_samples: int = 200, seed: int = 0) -> dict:
+                    n_samples: int = 200, seed: int = 0, progress: bool | None = None) -> dict:
     """Worst-case closed-loop gain from a plant input disturbance to a plant output over Delta.
 
     The disturbance ``d`` is added to the plant input (``u = -K y + d``); the gain ``|y/d|`` is
@@ -455,6 +462,8 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
         Random samples (besides vertices).
     seed : int
         Random seed.
+    progress : bool or None
+        Progress bar over the samples; None (default) follows ``sdctrl.config.progress``.
 
     Returns
     -------
@@ -463,7 +472,6 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     """
     import control
 
-    from .frf import ss_frf
     nb = len(um.blocks)
     rng = np.random.default_rng(seed)
     if freq is None:
@@ -476,7 +484,7 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     ds = np.vstack([np.zeros((1, nb)), verts, rng.uniform(-1, 1, (n_samples, nb))])
     worst = None
     peak, wd, nom = -np.inf, None, None
-    for d in ds:
+    for d in progress_bar(ds, desc="worst-case gain", unit="sample", enabled=progress):
         G = um.perturbed(d)
         cl = control.feedback(G, controller, sign=-1)
         H = np.abs(ss_frf(cl.A, cl.B, cl.C, cl.D, w)[:, output, input])

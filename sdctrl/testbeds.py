@@ -14,7 +14,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from sdctrl._validate import check_quantity
+from sdctrl._validate import check_band, check_quantity
 
 __all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "testbed", "testbed_frf"]
 
@@ -247,10 +247,10 @@ def testbed_frf(quantity: str = "acceleration", band=TESTBED_BAND, n: int = 1000
         Sensors and actuators labelled by FE DOF labels (``"N30.z"``), collocated pairs
         set (shaker ``i`` with sensor ``i``).
     """
-    from sdctrl.frf import FRF, _check_band
+    from sdctrl.frf import FRF
 
     q = check_quantity(quantity, "quantity")
-    lo, hi = _check_band(band, "band")
+    lo, hi = check_band(band, "band")
     if lo <= 0:
         raise ValueError(f"band must start above 0 Hz, got ({lo:g}, {hi:g})")
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 2:

@@ -31,6 +31,8 @@ import re
 
 import numpy as np
 
+from sdctrl._validate import as_statespace, check_band
+
 __all__ = ["RMSSnapshot", "assert_rms_matches", "load_snapshot", "record_rms"]
 
 SNAPSHOT_FORMAT = "sdctrl-rms-snapshot"
@@ -38,9 +40,9 @@ SNAPSHOT_VERSION = 1
 
 
 def _closed(system, controller):
-    from sdctrl.closedloop import _as_ss, feedback
+    from sdctrl.closedloop import feedback
 
-    G = _as_ss(system, "system")
+    G = as_statespace(system, "system")
     return G if controller is None else feedback(G, controller)
 
 
@@ -78,9 +80,9 @@ def record_rms(system, band, psd=1.0, path=None, *, controller=None, name: str |
         ``"inf"``.
     """
     from sdctrl import __version__
-    from sdctrl.closedloop import _band, rms
+    from sdctrl.closedloop import rms
 
-    lo, hi = _band(band)
+    lo, hi = check_band(band, infinite=True)
     G = _closed(system, controller)
     values = rms(G, (lo, hi), psd)
     p = np.asarray(psd, float)
@@ -209,6 +211,9 @@ class RMSSnapshot:
     def __init__(self, path, update: bool = False):
         self.path = pathlib.Path(path)
         self.update = bool(update)
+
+    def __repr__(self) -> str:
+        return f"RMSSnapshot({str(self.path)!r}, update={self.update})"
 
     def _file(self, name):
         if name is None:

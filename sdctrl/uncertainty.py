@@ -4,12 +4,24 @@ The uncertain model (5.5) is ``p'' + (Gamma + dGamma) p' + (Omega + dOmega) p = 
 ``y = (cphi + dc) p + E u``.  Every uncertain entry is one real parameter; a symmetric off-diagonal
 pair of ``Gamma`` or ``Omega`` is one repeated real scalar (a rank-two channel).  The perturbation
 enters affinely, so the linear fractional transformation built by :meth:`UncertainModel.lft` is exact.
+
+Place in the flow: this module sits *before* :mod:`sdctrl.modal` (``frf -> io -> uncertainty ->
+modal``), so that :meth:`NormalModeModel.uncertain` builds an :class:`UncertainModel` without a
+cycle.  It never imports :mod:`sdctrl.modal`: it reads the nominal model through its fields
+(``Omega``, ``Gamma``, ``cphi``, ``phib``, ``E``, ``F``, ``sensors``, ``actuators``,
+``frequency``) and copies it with ``model.replace``, which every normal-mode model (identified,
+FE-derived, hybrid) has.  The robustness analysis that uses it (:mod:`sdctrl.robust`) sits after
+the closed-loop modules.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from sdctrl._statespace import ss_frf
+from sdctrl._util import MAX_ROWS, markdown_table, one_line
+from sdctrl._validate import check_freq, signal_names
 
 __all__ = [
     "MultiTestResult",
@@ -36,7 +48,7 @@ def _bound(arr, shape, name, symmetric):
     return a
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class UncertainModel:
     """Normal mode model with bounded real parametric uncertainty, eq. (5.5).
 
@@ -60,6 +72,22 @@ class UncertainModel:
     db: np.ndarray
     dc: np.ndarray
     params: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        kinds = {}
+        for _, (kind, _i, _j), _r, _b in self.params:
+            kinds[kind] = kinds.get(kind, 0) + 1
+        what = ", ".join(f"{k} {v}" for k, v in kinds.items())
+        m = self.model
+        return one_line("UncertainModel", [
+            f"n={m.n}", f"ns={m.ns}", f"na={m.na}",
+            f"{len(self.params)} uncertain parameters" + (f" ({what})" if what else ""),
+            f"{sum(p[2] for p in self.params)} Delta channels"])
+
+    def _repr_markdown_(self) -> str:
+        rows = [(name, rep, f"{beta:.3g}") for name, _, rep, beta in self.params]
+        return f"`{self!r}`\n\n" + markdown_table(["block", "repetition", "bound"], rows,
+                                                     MAX_ROWS)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -124,17 +152,18 @@ class UncertainModel:
         """
         import control
 
-        from ._validate import signal_name
         A, Bw, B, Cz, Dzu, C, Dyw, D = self._lft_matrices()
         r = Bw.shape[1]
         m = self.model
         chans = []
         for name, _, rep, _ in self.params:
             chans += [name] if rep == 1 else [f"{name}_{q}" for q in range(rep)]
+        inputs, outputs = signal_names(m.sensors, m.actuators,
+                                       extra_inputs=[f"{c}_w" for c in chans],
+                                       extra_outputs=[f"{c}_z" for c in chans])
         P = control.ss(A, np.hstack([Bw, B]), np.vstack([Cz, C]),
                        np.block([[np.zeros((r, r)), Dzu], [Dyw, D]]),
-                       inputs=[f"{c}_w" for c in chans] + [signal_name(a) for a in m.actuators],
-                       outputs=[f"{c}_z" for c in chans] + [signal_name(s) for s in m.sensors],
+                       inputs=inputs, outputs=outputs,
                        states=[f"p{j}" for j in range(m.n)] + [f"dp{j}" for j in range(m.n)])
         return P, self.blocks
 
@@ -192,7 +221,6 @@ class UncertainModel:
         """
         import control
 
-        from ._validate import signal_name
         Om, Ga, b, c = self.perturbed_matrices(deltas)
         m = self.model
         n, ns = m.n, m.ns
@@ -200,8 +228,8 @@ class UncertainModel:
         B = np.vstack([np.zeros((n, m.na)), b])
         C = np.hstack([c, np.zeros((ns, n))])
         D = np.zeros((ns, m.na)) if m.E is None else np.array(m.E, float)
-        return control.ss(A, B, C, D, inputs=[signal_name(a) for a in m.actuators],
-                          outputs=[signal_name(s) for s in m.sensors],
+        inputs, outputs = signal_names(m.sensors, m.actuators)
+        return control.ss(A, B, C, D, inputs=inputs, outputs=outputs,
                           states=[f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)])
 
     def sample_deltas(self, n: int, seed=None) -> np.ndarray:
@@ -257,8 +285,6 @@ class UncertainModel:
             ``freq``, ``nominal`` (complex), ``mag_min``, ``mag_max``, ``phase_min``, ``phase_max``
             (degrees, unwrapped around the nominal phase), each ``(nf, ns, na)``.
         """
-        from ._validate import check_freq
-        from .frf import ss_frf
         f = check_freq(freq, "freq")
         w = 2 * np.pi * np.asarray(f, float)
         nb = len(self.params)
@@ -398,7 +424,7 @@ def default_bounds(model, gamma_fraction: float = 0.5, omega_fraction: float = 0
             "dOmega": modal_density_bound(model.Omega, omega_fraction)}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MultiTestResult:
     """Mean model and spread from several tests (section 5.2.3).
 
@@ -422,6 +448,12 @@ class MultiTestResult:
     bounds: dict
     tables: dict
     aligned: list
+
+    def __repr__(self) -> str:
+        mac = np.asarray(self.tables.get("mac", np.ones(1)))
+        return one_line("MultiTestResult", [
+            f"{len(self.aligned)} models", f"n={self.mean.n}", f"ns={self.mean.ns}",
+            f"na={self.mean.na}", f"min MAC={mac.min():.3f}" if mac.size else ""])
 
 
 def _align(ref, m):

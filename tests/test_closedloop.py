@@ -173,7 +173,7 @@ def test_dstrut_closed_loop_three_ways_equals_direct_fe():
     P = strut_plant(nm, s)
     K = strut_controller(kp, kv)
     cl2 = feedback(P, K)
-    assert cl2.input_labels == ["N17_y", "N11_z", "strut"]
+    assert cl2.input_labels == ["N17_y_u", "N11_z_u", "strut_u"]
     assert cl2.output_labels == ["N17_y", "N19_x", "N11_z", "N8_y", "strut", "strut_dot"]
     H2 = np.moveaxis(cl2(2j * np.pi * f), -1, 0)[:, :4, :2]
     assert np.abs(H2 - ref).max() < 1e-6 * scale           # state-space round-off

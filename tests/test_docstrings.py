@@ -2,7 +2,9 @@
 python-control's docstrings test: the docs never fall behind the code."""
 
 import dataclasses
+import importlib
 import inspect
+import pathlib
 import re
 
 import pytest
@@ -35,25 +37,50 @@ def _params(obj) -> list[str]:
             if p.name not in ("self", "cls") and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
 
 
-def _public_callables():
-    out = []
-    for name in sd.__all__:
-        try:
-            obj = getattr(sd, name)
-        except (ImportError, AttributeError) as exc:      # reported by test_public_names_resolve
-            out.append((name, f"cannot import: {exc}", ["<unresolved>"]))
+def _public_modules():
+    """The top level and every public module (no ``_`` in its path) that defines ``__all__``."""
+    root = pathlib.Path(sd.__file__).resolve().parent
+    out = [sd]
+    for path in sorted(root.rglob("*.py")):
+        parts = ("sdctrl",) + path.relative_to(root).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        if len(parts) == 1 or any(p.startswith("_") for p in parts[1:]):
             continue
-        if inspect.isclass(obj):
-            fields = ([f.name for f in dataclasses.fields(obj) if f.init and f.name != "info"]
-                      if dataclasses.is_dataclass(obj) else _params(obj.__init__))
-            out.append((name, obj.__doc__, fields))
-            for mname, meth in vars(obj).items():
-                if mname.startswith("_") or not callable(meth) or isinstance(meth, type):
-                    continue
-                func = meth.__func__ if isinstance(meth, classmethod | staticmethod) else meth
-                out.append((f"{name}.{mname}", func.__doc__, _params(func)))
-        elif callable(obj):
-            out.append((name, obj.__doc__, _params(obj)))
+        mod = importlib.import_module(".".join(parts))
+        if hasattr(mod, "__all__"):
+            out.append(mod)
+    return out
+
+
+def _entries(qual, obj):
+    if inspect.isclass(obj):
+        fields = ([f.name for f in dataclasses.fields(obj) if f.init and f.name != "info"]
+                  if dataclasses.is_dataclass(obj) else _params(obj.__init__))
+        yield qual, obj.__doc__, fields
+        for mname, meth in vars(obj).items():
+            if mname.startswith("_") or not callable(meth) or isinstance(meth, type):
+                continue
+            func = meth.__func__ if isinstance(meth, classmethod | staticmethod) else meth
+            yield f"{qual}.{mname}", func.__doc__, _params(func)
+    elif callable(obj):
+        yield qual, obj.__doc__, _params(obj)
+
+
+def _public_callables():
+    out, seen = [], set()
+    for mod in _public_modules():
+        for name in mod.__all__:
+            qual = f"{mod.__name__}.{name}"
+            try:
+                obj = getattr(mod, name)
+            except (ImportError, AttributeError) as exc:  # reported by test_public_names_resolve
+                out.append((qual, f"cannot import: {exc}", ["<unresolved>"]))
+                continue
+            if inspect.ismodule(obj) or id(obj) in seen:
+                continue
+            seen.add(id(obj))
+            out.extend(_entries(qual, obj))
     return out
 
 
@@ -69,7 +96,8 @@ def test_every_parameter_documented(qualname, doc, params):
 
 
 def test_public_names_resolve():
-    for name in sd.__all__:
-        assert getattr(sd, name) is not None
+    for mod in _public_modules():
+        for name in mod.__all__:
+            assert getattr(mod, name) is not None, f"{mod.__name__}.{name}"
     with pytest.raises(AttributeError):
         sd.not_a_name  # noqa: B018

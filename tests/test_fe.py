@@ -337,7 +337,7 @@ def test_top_level_name_and_statespace_labels():
     fe = _cantilever(6)
     nm = fe.normal_mode_model(["N6.y"], ["N6.y", "N3.z"], 4, static=True)
     sys = nm.to_statespace("displacement")
-    assert list(sys.input_labels) == ["N6_y"] and list(sys.output_labels) == ["N6_y", "N3_z"]
+    assert list(sys.input_labels) == ["N6_y_u"] and list(sys.output_labels) == ["N6_y", "N3_z"]
     # collocated driving point: passive, Im H <= 0 for displacement/force
     H = nm.frf(np.linspace(1, 500, 200)).H[:, 0, 0]
     assert np.all(H.imag <= 1e-15 * np.abs(H).max())

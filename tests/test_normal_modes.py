@@ -350,7 +350,7 @@ def test_statespace_equals_frf_without_E(quantity):
     G = nm.to_statespace(quantity)
     assert np.abs(_ss_frf(G, f) - H).max() < 1e-8 * np.abs(H).max()
     assert G.output_labels == [s.replace(".", "_") for s in nm.sensors]
-    assert G.input_labels == ["N1_y:in", "N5_y:in", "N9_y:in"]
+    assert G.input_labels == ["N1_y:in_u", "N5_y:in_u", "N9_y:in_u"]
     assert G.nstates == 2 * nm.n
 
 

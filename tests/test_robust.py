@@ -59,7 +59,7 @@ def test_isolated_frequency_real_mu_caught_by_crossings():
     # without regularisation, real mu on that grid is (almost) zero: the trap
     A, B, C, D = closed_loop_lft(um, K)
     w = 2 * np.pi * f
-    from sdctrl.frf import ss_frf
+    from sdctrl._statespace import ss_frf
     Ms = ss_frf(A, B, C, D, w)
     raw = max(mu_upper(M, [1], eps=0.0, rtol=0.05)[0] for M in Ms)
     assert raw < 0.5 * (1 / exact)

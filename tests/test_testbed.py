@@ -114,5 +114,5 @@ def test_testbed_frf_validation():
 def test_testbed_statespace_names():
     nm = tb._modal()
     sys = nm.to_statespace("acceleration")
-    assert list(sys.input_labels) == [s.replace(".", "_") for s in tb.SHAKERS]
+    assert list(sys.input_labels) == [s.replace(".", "_") + "_u" for s in tb.SHAKERS]
     assert sys.noutputs == 31

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sdctrl.frf import ss_frf
+from sdctrl._statespace import ss_frf
 from sdctrl.modal import NormalModeModel
 from sdctrl.uncertainty import (
     default_bounds,

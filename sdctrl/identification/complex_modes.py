@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
     as_array,
@@ -19,7 +20,7 @@ from sdctrl._validate import (
     check_labels,
     check_quantity,
     readonly,
-    signal_name,
+    signal_names,
 )
 
 __all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
@@ -98,6 +99,21 @@ class ComplexModeModel:
         sets(self, "collocated", check_collocated(self.collocated, ns, na, "collocated",
                                                   sensors, actuators))
         sets(self, "info", dict(self.info))
+
+    # --- display --------------------------------------------------------------------
+    def __repr__(self) -> str:
+        nin = int(np.count_nonzero(self.in_band))
+        return one_line("ComplexModeModel", [
+            f"n={self.n}", f"ns={self.ns}", f"na={self.na}", hz_range(self.frequency),
+            f"{nin} in band" if nin < self.n else "",
+            "" if self.band is None else f"band={hz_range(self.band)}",
+            "" if np.isnan(self.cost) else f"cost={self.cost:.3g}"])
+
+    def _repr_markdown_(self) -> str:
+        rows = [(j + 1, f"{self.frequency[j]:.4g}", f"{100 * self.damping[j]:.3g}",
+                 "yes" if self.in_band[j] else "no") for j in range(self.n)]
+        return (f"`{self!r}`\n\n" + markdown_table(
+            ["mode", "frequency (Hz)", "damping (%)", "in band"], rows, MAX_ROWS))
 
     # --- sizes and modal data -------------------------------------------------------
     @property
@@ -292,9 +308,10 @@ class ComplexModeModel:
         Returns
         -------
         control.StateSpace
-            Real ``A``, ``B``, ``C``, ``D`` with inputs/outputs named after the
-            actuators/sensors (``.`` replaced by ``_``).  For displacement the model is
-            exact (``E`` as feedthrough, ``F/s^2`` by a double integrator per actuator).
+            Real ``A``, ``B``, ``C``, ``D``; outputs named after the sensors, inputs after
+            the actuators followed by ``_u`` (``.`` replaced by ``_``).  For displacement
+            the model is exact (``E`` as feedthrough, ``F/s^2`` by a double integrator per
+            actuator).
 
         Notes
         -----
@@ -317,6 +334,13 @@ def scale_residues(residues, pairs):
     collocated pairs; ``kappa_j^2 = z_j = sum_l conj(u_sl) w_al / sum_l |u_sl|^2`` is the
     least-squares compromise over the pairs.  Modes with ``z_j = 0`` get NaN scalings.
     Internal: inputs are trusted; callers decide how to report unscalable modes.
+
+    Parameters
+    ----------
+    residues : array_like, shape (n, ns, na), complex
+        Residues of the complex-mode model.
+    pairs : sequence of (int, int)
+        Collocated (sensor, actuator) index pairs.
 
     Returns
     -------
@@ -350,7 +374,25 @@ def scale_residues(residues, pairs):
 
 
 def frf_array(poles, residues, E, F, s) -> np.ndarray:
-    """Displacement FRF (ns x na per line) of (3.7) at Laplace points ``s`` (rad/s)."""
+    """Displacement FRF (ns x na per line) of (3.7) at Laplace points ``s`` (rad/s).
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n,)
+        Poles (rad/s), upper half-plane.
+    residues : ndarray, shape (n, ns, na), complex
+        Residues.
+    E : ndarray, shape (ns, na)
+        Residual flexibility.
+    F : ndarray, shape (ns, na) or None
+        Residual mass term ``F/s^2``.
+    s : ndarray, shape (nf,)
+        Laplace points ``j w`` (rad/s).
+
+    Returns
+    -------
+    ndarray, shape (nf, ns, na), complex
+    """
     g = 1.0 / (s[:, None] - poles[None, :])             # (nf, n)
     gc = 1.0 / (s[:, None] - poles.conj()[None, :])
     H = np.einsum("wn,nij->wij", g, residues) + np.einsum("wn,nij->wij", gc, residues.conj())
@@ -364,7 +406,21 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
                   omega_c: float | None = None):
     """Real 2x2-block state-space form (3.26)-(3.33) of a complex-mode model.
 
-    See :meth:`ComplexModeModel.to_statespace` (parameters and notes).
+    See :meth:`ComplexModeModel.to_statespace` (notes).
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The model.
+    quantity : {"displacement", "velocity", "acceleration"}
+        Output quantity.
+    omega_c : float, optional
+        Cut-off (rad/s) of the correction filter of the improper terms.
+
+    Returns
+    -------
+    control.StateSpace
+        Outputs named after the sensors, inputs after the actuators followed by ``_u``.
     """
     import control
 
@@ -450,5 +506,5 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
         C = np.hstack([C, Ce])
         D = D + De
         states += st
-    return control.ss(A, B, C, D, inputs=[signal_name(a) for a in cm.actuators],
-                      outputs=[signal_name(s) for s in cm.sensors], states=states)
+    inputs, outputs = signal_names(cm.sensors, cm.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)

@@ -789,7 +789,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     from threadpoolctl import threadpool_limits
     from tqdm.auto import tqdm
 
-    from sdctrl.frf import FRF, _check_band
+    from sdctrl._validate import check_band as _check_band
+    from sdctrl.frf import FRF
     from sdctrl.identification.complex_modes import ComplexModeModel
     from sdctrl.identification.poles import peak_candidates
 

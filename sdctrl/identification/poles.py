@@ -179,7 +179,8 @@ def initial_poles(frf, band=None, n: int | None = None, damping: float = 0.01,
     >>> bool((poles.imag > 0).all())
     True
     """
-    from sdctrl.frf import FRF, _check_band
+    from sdctrl._validate import check_band as _check_band
+    from sdctrl.frf import FRF
 
     if not isinstance(frf, FRF):
         raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")

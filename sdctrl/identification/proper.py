@@ -211,6 +211,13 @@ def scaled_modes(residues: np.ndarray, pairs) -> tuple[np.ndarray, np.ndarray]:
     ``kappa_j^2`` is their least-squares compromise
     ``sum conj(u_s) w_a / sum |u_s|^2``.  Internal: inputs are trusted.
 
+    Parameters
+    ----------
+    residues : ndarray, shape (n, ns, na), complex
+        Residues of the complex-mode model.
+    pairs : sequence of (int, int)
+        Collocated (sensor, actuator) index pairs.
+
     Returns
     -------
     cpsi : ndarray, shape (ns, n)
@@ -313,6 +320,13 @@ def transformation(psi: np.ndarray, lam: np.ndarray):
 
     ``M_T = (psi Lambda psi^T)^-1``, ``C_T = -M_T (psi Lambda^2 psi^T) M_T`` and
     ``K_T = -(psi Lambda^-1 psi^T)^-1``, sums over the ``2 n`` modes.
+
+    Parameters
+    ----------
+    psi : ndarray, shape (n, n), complex
+        Proper complex modes (one column per upper half-plane pole).
+    lam : ndarray, shape (n,), complex
+        The poles (rad/s).
 
     Returns
     -------

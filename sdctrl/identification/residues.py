@@ -36,12 +36,42 @@ __all__ = [
 
 
 def pole_from_params(w: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Pole ``-z w + i w sqrt(1 - z^2)`` from natural frequency ``w`` (rad/s) and damping."""
+    """Pole ``-z w + i w sqrt(1 - z^2)`` from natural frequency ``w`` (rad/s) and damping.
+
+    Parameters
+    ----------
+    w : ndarray
+        Natural frequencies (rad/s).
+    z : ndarray
+        Damping ratios in ``[0, 1)``.
+
+    Returns
+    -------
+    ndarray
+        Complex poles (upper half-plane).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> complex(pole_from_params(np.array(2.0), np.array(0.6)))
+    (-1.2+1.6j)
+    """
     return -z * w + 1j * w * np.sqrt(1.0 - z**2)
 
 
 def stack(X: np.ndarray) -> np.ndarray:
-    """Real stacking ``[Re X; Im X]`` along the first axis."""
+    """Real stacking ``[Re X; Im X]`` along the first axis.
+
+    Parameters
+    ----------
+    X : ndarray
+        Complex array.
+
+    Returns
+    -------
+    ndarray
+        Real array with twice the first dimension.
+    """
     return np.concatenate([X.real, X.imag], axis=0)
 
 
@@ -55,6 +85,24 @@ def basis(lam: np.ndarray, s: np.ndarray, k: int, model: str = "complex",
 
     Columns: two per pole (``g1``, ``g2``) for ``model="complex"``, one per pole for
     ``model="real"``, then ``1`` (E) and ``1/s^2`` (F) when ``asymptotic`` asks for them.
+
+    Parameters
+    ----------
+    lam : ndarray, shape (n,)
+        Poles (rad/s), upper half-plane.
+    s : ndarray, shape (nf,)
+        Laplace points ``j w`` (rad/s).
+    k : int
+        Power of ``s`` of the measured quantity (0, 1, 2: displacement, velocity,
+        acceleration).
+    model : {"complex", "real"}
+        Complex-mode (3.7) or real-mode (3.9) parametrisation.
+    asymptotic : (bool, bool)
+        Whether to append the ``E`` and ``F`` columns.
+
+    Returns
+    -------
+    ndarray, shape (nf, p), complex
     """
     lam = np.asarray(lam, complex)
     n = lam.size
@@ -84,6 +132,23 @@ def basis_derivative(lam: complex, w: float, z: float, s: np.ndarray, k: int,
 
     ``d lambda / d ln w = lambda`` and ``d lambda / d ln z = z (-w - i w z / sqrt(1-z^2))``,
     the ingredients of the gradient (3.19).
+
+    Parameters
+    ----------
+    lam : complex
+        The pole (rad/s).
+    w, z : float
+        Its natural frequency (rad/s) and damping ratio.
+    s : ndarray, shape (nf,)
+        Laplace points (rad/s).
+    k : int
+        Power of ``s`` of the measured quantity.
+    model : {"complex", "real"}
+        Parametrisation (3.7) or (3.9).
+
+    Returns
+    -------
+    d_ln_w, d_ln_z : ndarray, shape (nf, 1 or 2)
     """
     dl = (lam, z * (-w - 1j * w * z / np.sqrt(1.0 - z**2)))
     sk = (s**k)[:, None] if k else 1.0
@@ -103,8 +168,26 @@ def basis_derivative(lam: complex, w: float, z: float, s: np.ndarray, k: int,
 
 def basis_derivatives(lam: np.ndarray, w: np.ndarray, z: np.ndarray, s: np.ndarray, k: int,
                       model: str = "complex") -> np.ndarray:
-    """:func:`basis_derivative` for several poles at once: (2, nf, n, npp) complex, the
-    derivatives w.r.t. ``ln w`` (index 0) and ``ln z`` (index 1) of each pole's columns."""
+    """:func:`basis_derivative` for several poles at once.
+
+    Parameters
+    ----------
+    lam : ndarray, shape (n,)
+        Poles (rad/s).
+    w, z : ndarray, shape (n,)
+        Their natural frequencies (rad/s) and damping ratios.
+    s : ndarray, shape (nf,)
+        Laplace points (rad/s).
+    k : int
+        Power of ``s`` of the measured quantity.
+    model : {"complex", "real"}
+        Parametrisation (3.7) or (3.9).
+
+    Returns
+    -------
+    ndarray, shape (2, nf, n, npp), complex
+        Derivatives w.r.t. ``ln w`` (index 0) and ``ln z`` (index 1) of each pole's columns.
+    """
     lam = np.asarray(lam, complex)
     dl = np.stack([lam, z * (-w - 1j * w * z / np.sqrt(1.0 - z**2))])[:, None, :]
     a = 1.0 / (s[:, None] - lam[None, :])
@@ -152,9 +235,25 @@ class LSQ:
 
 
 def solve(Phi: np.ndarray, H: np.ndarray, normH2: float | None = None):
-    """Least-squares coefficients and cost for basis ``Phi`` (nf, p) and data ``H``.
+    """Least-squares coefficients and cost for basis ``Phi`` (nf, p) and data ``H`` (3.16).
 
-    Returns ``(C, cost, lsq)`` with ``C`` (p, m) real and ``cost = ||Y - A C||_F^2``.
+    Parameters
+    ----------
+    Phi : ndarray, shape (nf, p), complex
+        Pole basis (:func:`basis`).
+    H : ndarray, shape (nf, m), complex
+        Data, one column per sensor/actuator pair.
+    normH2 : float, optional
+        ``||H||_F^2`` when already known.
+
+    Returns
+    -------
+    C : ndarray, shape (p, m), real
+        Coefficients.
+    cost : float
+        ``||Y - A C||_F^2`` (stacked real residual).
+    lsq : LSQ
+        The QR factorisation, reusable for other data.
     """
     lsq = LSQ(Phi)
     QtY = lsq.project(H)
@@ -166,7 +265,26 @@ def solve(Phi: np.ndarray, H: np.ndarray, normH2: float | None = None):
 
 def coefficients_to_model(C: np.ndarray, lam: np.ndarray, model: str,
                           asymptotic: tuple[bool, bool], ns: int, na: int):
-    """Residues (n, ns, na) complex and real ``E``, ``F`` (ns, na) from coefficients ``C``."""
+    """Residues (n, ns, na) complex and real ``E``, ``F`` (ns, na) from coefficients ``C``.
+
+    Parameters
+    ----------
+    C : ndarray, shape (p, ns * na), real
+        Least-squares coefficients (:func:`solve`).
+    lam : ndarray, shape (n,)
+        Poles (rad/s).
+    model : {"complex", "real"}
+        Parametrisation (3.7) or (3.9).
+    asymptotic : (bool, bool)
+        Whether ``C`` holds the ``E`` and ``F`` rows.
+    ns, na : int
+        Numbers of sensors and actuators.
+
+    Returns
+    -------
+    R : ndarray, shape (n, ns, na), complex
+    E, F : ndarray, shape (ns, na)
+    """
     n = lam.size
     if model == "complex":
         a = C[0:2 * n:2]
