@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sdctrl.plot import _channels as ch
 from sdctrl.plot._figure import FREQ_LABEL, db, db_label, figure, finish, log_x_if_wide
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["cmif", "stabilisation", "stabilisation_flags", "stabilization"]
 
@@ -40,8 +46,8 @@ def _mark_poles(ax, poles, lo, hi):
         ax.axvline(fj, color="0.4", lw=0.7, ls=":", zorder=0)
 
 
-def cmif(data, freq=None, path=None, title=None, *, quantity: str | None = None,
-         n_sv: int | None = None, poles=None):
+def cmif(data, freq=None, path: str | os.PathLike | None = None, title: str | None = None, *,
+         quantity: str | None = None, n_sv: int | None = None, poles=None) -> Figure:
     """Complex mode indicator function: the singular values of ``H(f)`` per frequency (dB).
 
     Peaks of the first singular value locate the modes; a second singular value peaking at
@@ -186,9 +192,10 @@ def _shapes(poles, shapes, P):
     return out
 
 
-def stabilisation(poles, frf=None, orders=None, path=None, title=None, *, shapes=None,
-                  freq_tol: float = 0.01, damping_tol: float = 0.05, mac_min: float = 0.95,
-                  background: str = "cmif", band=None, ylabel: str = "model order"):
+def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None = None,
+                  title: str | None = None, *, shapes=None, freq_tol: float = 0.01,
+                  damping_tol: float = 0.05, mac_min: float = 0.95, background: str = "cmif",
+                  band=None, ylabel: str = "model order") -> Figure:
     """Stabilisation diagram: poles of each model order (or iteration) over the CMIF.
 
     Each pole is drawn at its frequency ``|p| / 2 pi`` (Hz) and its order, with a marker

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sdctrl._validate import as_array
 from sdctrl.plot._figure import figure, finish
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["cost_map", "mac"]
 
@@ -45,8 +51,8 @@ def _ticks(given, default, name):
     return out
 
 
-def mac(a, b=None, path=None, title=None, *, labels_a=None, labels_b=None,
-        names=None, annotate: bool | None = None):
+def mac(a, b=None, path: str | os.PathLike | None = None, title: str | None = None, *,
+        labels_a=None, labels_b=None, names=None, annotate: bool | None = None) -> Figure:
     """MAC matrix (4.9) as a heat map with its values written in the cells.
 
     Parameters
@@ -106,9 +112,9 @@ def mac(a, b=None, path=None, title=None, *, labels_a=None, labels_b=None,
     return finish(fig, path, title or ("auto-MAC" if b is None else "MAC"))
 
 
-def cost_map(x, y, cost, path=None, title=None, *, xlabel: str = "p1", ylabel: str = "p2",
-             optimum=None, markers=None, log: bool | None = None, levels: int = 20,
-             cost_label: str = "cost"):
+def cost_map(x, y, cost, path: str | os.PathLike | None = None, title: str | None = None, *,
+             xlabel: str = "p1", ylabel: str = "p2", optimum=None, markers=None,
+             log: bool | None = None, levels: int = 20, cost_label: str = "cost") -> Figure:
     """Cost over a grid of two parameters, filled contours with the optimum (Figure 4.6).
 
     A long flat valley shows parameters the test cannot tell apart (thesis 4.3.3: the

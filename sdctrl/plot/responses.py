@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +20,9 @@ from sdctrl.plot._figure import (
     log_x_if_wide,
 )
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 __all__ = ["bode", "envelope", "phase_display"]
 
 #: a sample's phase is coherent when the median |phase step| around it is below this (deg)
@@ -30,7 +35,7 @@ PHASE_MIN_RUN = 5
 COHERENCE_MIN = 0.5
 
 
-def phase_display(h, coherence=None, unwrap: bool = True):
+def phase_display(h, coherence=None, unwrap: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Phase of one channel split into a coherent line and scattered noisy points (degrees).
 
     A sample is *coherent* when the median of the absolute wrapped phase steps in a window
@@ -135,9 +140,10 @@ def _draw_channel(ax_m, ax_p, frf, s, a, style, color, label, unwrap):
         ax_p.plot(frf.freq, points, ".", color=color, ms=2.5, alpha=0.6)
 
 
-def bode(systems, labels=None, channels=None, path=None, title=None, *, sensors=None,
-         actuators=None, freq=None, quantity: str | None = None, phase: bool = True,
-         unwrap: bool = True, max_cols: int = 3):
+def bode(systems, labels=None, channels=None, path: str | os.PathLike | None = None,
+         title: str | None = None, *, sensors=None, actuators=None, freq=None,
+         quantity: str | None = None, phase: bool = True, unwrap: bool = True,
+         max_cols: int = 3) -> Figure:
     """Bode overlay (magnitude in dB, phase in degrees) of FRFs, models and StateSpace objects.
 
     One panel pair (magnitude over phase) per channel, wrapping into rows of at most
@@ -264,9 +270,9 @@ def _envelope_of_model(um, freq, nominal, quantity, n_samples, seed):
     return (nom_frf or ref), ref, env["mag_min"] * gain, env["mag_max"] * gain, q
 
 
-def envelope(samples, freq=None, nominal=None, channels=None, path=None, title=None, *,
-             sensors=None, actuators=None, quantity: str | None = None, n_samples: int = 200,
-             seed=0, max_cols: int = 3):
+def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.PathLike | None = None,
+             title: str | None = None, *, sensors=None, actuators=None, quantity: str | None = None,
+             n_samples: int = 200, seed=0, max_cols: int = 3) -> Figure:
     """Uncertainty envelope: min/max band of ``|H|`` (dB) over samples, with the nominal.
 
     Parameters

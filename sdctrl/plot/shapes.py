@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sdctrl._validate import as_array
 from sdctrl.plot._figure import figure, finish, grid_shape
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["complex_residues", "mode_shapes", "phase_dispersion"]
 
@@ -89,8 +95,9 @@ def _residue_set(x, mode: int, actuator, scaled: bool, name: str):
     return arr, None, None
 
 
-def complex_residues(data, mode: int = 0, path=None, title=None, *, actuator=None,
-                     scaled: bool = False, labels=None, sensors=None, rel: float = 0.1):
+def complex_residues(data, mode: int = 0, path: str | os.PathLike | None = None,
+                     title: str | None = None, *, actuator=None, scaled: bool = False, labels=None,
+                     sensors=None, rel: float = 0.1) -> Figure:
     """Residues of one mode at all sensors in the complex plane (thesis Figure 3.5).
 
     Shows how far an identified complex mode is from a real (proportionally damped)
@@ -215,8 +222,9 @@ def _shape_source(fe, shapes, modes, dofs):
     return phi, (dofs if dofs is not None else fe.dofs), None
 
 
-def mode_shapes(fe, shapes=None, modes=0, path=None, title=None, *, dofs=None,
-                scale: float | None = None, max_cols: int = 3):
+def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
+                title: str | None = None, *, dofs=None, scale: float | None = None,
+                max_cols: int = 3) -> Figure:
     """Mode shapes on the FE geometry: undeformed wireframe and deformed shape, 3-D axes.
 
     Parameters
