@@ -200,12 +200,8 @@ def align(ref: FRF, frf: FRF, name: str) -> tuple[list[int], list[int]]:
 
 
 def legend_labels(labels, n: int, name: str = "labels") -> list[str]:
-    """Legend entries: the given ones (one per item) or ``"0", "1", ...``."""
-    if labels is None:
-        return [f"{i}" for i in range(n)] if n > 1 else [""]
-    if isinstance(labels, str):
-        labels = [labels]
-    labels = [str(lab) for lab in labels]
+    """Legend entries given by the caller, one per item."""
+    labels = [labels] if isinstance(labels, str) else [str(lab) for lab in labels]
     if len(labels) != n:
         raise ValueError(f"{name} must have one entry per system ({n}), got {len(labels)}")
     return labels

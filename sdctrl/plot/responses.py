@@ -26,28 +26,36 @@ if TYPE_CHECKING:
 __all__ = ["bode", "envelope", "phase_display"]
 
 #: a sample's phase is coherent when the median |phase step| around it is below this (deg)
-PHASE_STEP_TOL = 30.0
+PHASE_STEP_TOL = 25.0
 #: ... over this many steps (centred window)
-PHASE_WINDOW = 8
+PHASE_WINDOW = 12
 #: coherent runs shorter than this many samples (chance in noise) count as noise
-PHASE_MIN_RUN = 5
+PHASE_MIN_RUN = 6
 #: ... and, when the FRF carries a coherence, when the coherence reaches this value
 COHERENCE_MIN = 0.5
 
 
-def phase_display(h, coherence=None, unwrap: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def phase_display(h, coherence=None, unwrap: bool = True,
+                  reference=None) -> tuple[np.ndarray, np.ndarray]:
     """Phase of one channel split into a coherent line and scattered noisy points (degrees).
 
     A sample is *coherent* when the median of the absolute wrapped phase steps in a window
     of :data:`PHASE_WINDOW` steps centred on it is below :data:`PHASE_STEP_TOL` degrees
     (a clean response turns slowly between lines except for isolated jumps at lightly damped
     poles and zeros, which the median ignores; noise makes the steps random, median ~90 deg)
-    and, if ``coherence`` is given, when it reaches :data:`COHERENCE_MIN`; runs of fewer
-    than :data:`PHASE_MIN_RUN` coherent samples (chance in noise) do not count.  Coherent samples
-    are unwrapped among themselves (noisy samples in between never shift them by 360 deg);
-    the other samples are wrapped into the 360 deg window centred on the last coherent value
-    (the first one before any; (-180, 180] when ``unwrap`` is False), to be drawn as points
-    rather than as a line that fills the axes with vertical strokes.
+    and, if ``coherence`` is given, when it reaches :data:`COHERENCE_MIN`; a run of coherent
+    samples loses the end samples it reaches by a step above the tolerance (noise next to
+    clean data, let through by the window), and runs of fewer than :data:`PHASE_MIN_RUN`
+    samples (chance in noise) do not count.
+
+    Coherent samples are unwrapped among themselves, so noisy samples never shift them by
+    360 deg.  Across a noisy gap the turn count is unknowable (a lightly damped zero or pole
+    inside the gap turns the phase by about 180 deg either way); with a ``reference`` each
+    coherent run is moved by the multiple of 360 deg that puts it closest to the reference
+    (median difference), so that a noisy test overlays its model.  The other samples are
+    wrapped into the 360 deg window centred on the last coherent value (the first one before
+    any; (-180, 180] when ``unwrap`` is False), to be drawn as points rather than as a line
+    that fills the axes with vertical strokes.
 
     Parameters
     ----------
@@ -57,6 +65,8 @@ def phase_display(h, coherence=None, unwrap: bool = True) -> tuple[np.ndarray, n
         Coherence of the channel in [0, 1].
     unwrap : bool
         Unwrap the coherent samples; False keeps every value in (-180, 180].
+    reference : array_like, shape (nf,), optional
+        Unwrapped phase (deg) of a cleaner overlay on the same lines (NaN where unknown).
 
     Returns
     -------
@@ -66,8 +76,30 @@ def phase_display(h, coherence=None, unwrap: bool = True) -> tuple[np.ndarray, n
         Phase (deg) at the other samples, NaN at coherent ones.
     """
     h = np.asarray(h, dtype=complex)
-    ph = np.angle(h)
+    ph = np.degrees(np.angle(h))
     n = ph.size
+    coherent = _coherent(h, coherence)
+    line = np.full(n, np.nan)
+    points = np.full(n, np.nan)
+    idx = np.flatnonzero(coherent)
+    ref = np.zeros(n)
+    if idx.size and not unwrap:
+        line[idx] = ph[idx]
+    elif idx.size:
+        line[idx] = np.unwrap(ph[idx], period=360.0)
+        if reference is not None:
+            _align_runs(line, coherent, np.asarray(reference, float))
+        # reference of each noisy sample: the last coherent value before it (else the first)
+        last = np.maximum.accumulate(np.where(coherent, np.arange(n), -1))
+        ref = line[np.where(last >= 0, last, idx[0])]
+    noisy = ~coherent
+    points[noisy] = ref[noisy] + (ph[noisy] - ref[noisy] + 180.0) % 360.0 - 180.0
+    return line, points
+
+
+def _coherent(h: np.ndarray, coherence) -> np.ndarray:
+    """Samples whose phase is signal, not noise (rule in :func:`phase_display`)."""
+    n = h.size
     coherent = np.ones(n, bool)
     if n > 1:
         step = np.abs(np.angle(h[1:] * np.conj(h[:-1])))            # (n-1,) wrapped steps
@@ -81,34 +113,47 @@ def phase_display(h, coherence=None, unwrap: bool = True) -> tuple[np.ndarray, n
     coherent &= np.abs(h) > 0
     if coherence is not None:
         coherent &= np.asarray(coherence, float) >= COHERENCE_MIN
-    coherent = _drop_short_runs(coherent, min(PHASE_MIN_RUN, n))
-    line = np.full(n, np.nan)
-    points = np.full(n, np.nan)
-    idx = np.flatnonzero(coherent)
-    if idx.size and not unwrap:
-        line[idx] = ph[idx]
-        ref = np.zeros(n)
-    elif idx.size:
-        line[idx] = np.unwrap(ph[idx])
-        # reference of each noisy sample: the last coherent value before it (else the first)
-        last = np.maximum.accumulate(np.where(coherent, np.arange(n), -1))
-        ref = line[np.where(last >= 0, last, idx[0])]
-    else:
-        ref = np.zeros(n)
-    noisy = ~coherent
-    points[noisy] = ref[noisy] + np.angle(np.exp(1j * (ph[noisy] - ref[noisy])))
-    return np.degrees(line), np.degrees(points)
-
-
-def _drop_short_runs(mask: np.ndarray, min_run: int) -> np.ndarray:
-    """``mask`` without its runs of True shorter than ``min_run``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    keep = np.zeros(mask.size + 1, np.int8)
-    long = stops - starts >= min_run
+    if n > 1:
+        _trim_run_ends(coherent, step > np.radians(PHASE_STEP_TOL), PHASE_WINDOW // 2)
+    starts, stops = _runs(coherent)
+    keep = np.zeros(n + 1, np.int8)
+    long = stops - starts >= min(PHASE_MIN_RUN, n)
     np.add.at(keep, starts[long], 1)
     np.add.at(keep, stops[long], -1)
     return np.cumsum(keep[:-1]) > 0
+
+
+def _trim_run_ends(mask: np.ndarray, big: np.ndarray, most: int) -> None:
+    """Cut (in place) each run of ``mask`` at the big steps among its first and last ``most``.
+
+    The window median lets a few noise samples next to clean data pass; a noise sample is
+    reached by random steps, so a big step close to a run's end marks where noise begins.
+    """
+    for a, b in zip(*_runs(mask)):                     # a loop over runs, not frequencies
+        lo, hi = a, b
+        tail = np.flatnonzero(big[max(a, b - 1 - most):b - 1])   # steps j -> j + 1
+        if tail.size:
+            hi = max(a, b - 1 - most) + tail[0] + 1
+        head = np.flatnonzero(big[a:min(a + most, hi - 1)])
+        if head.size:
+            lo = a + head[-1] + 1
+        mask[a:lo] = False
+        mask[max(hi, lo):b] = False
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop (exclusive) indices of the runs of True in ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def _align_runs(line: np.ndarray, coherent: np.ndarray, reference: np.ndarray) -> None:
+    """Shift each coherent run of ``line`` (deg, in place) by 360 k towards ``reference``."""
+    for a, b in zip(*_runs(coherent)):                 # a loop over runs, not frequencies
+        d = line[a:b] - reference[a:b]
+        d = d[np.isfinite(d)]
+        if d.size:
+            line[a:b] -= 360.0 * np.round(np.median(d) / 360.0)
 
 
 def _default_labels(items) -> list[str]:
@@ -128,13 +173,32 @@ def _broken(x, y, jump: float = 180.0):
     return np.insert(x.astype(float), brk, np.nan), np.insert(y, brk, np.nan)
 
 
-def _draw_channel(ax_m, ax_p, frf, s, a, style, color, label, unwrap):
-    h = frf.H[:, s, a]
-    ax_m.plot(frf.freq, db(h), style, color=color, label=label)
+def _channel_phases(frfs, where_k, unwrap):
+    """Phase (line, points) of every system on one channel; the cleanest sets the turns."""
+    first = [None if w is None else phase_display(
+        f.H[:, w[0], w[1]], None if f.coherence is None else f.coherence[:, w[0], w[1]],
+        unwrap) for f, w in zip(frfs, where_k)]
+    score = [-1.0 if p is None else np.mean(np.isfinite(p[0])) for p in first]
+    r = int(np.argmax(score))                                 # earliest of the cleanest
+    if not unwrap or score[r] <= 0:
+        return first
+    ref_f, ref_line = frfs[r].freq, first[r][0]
+    out = []
+    for i, (f, w) in enumerate(zip(frfs, where_k)):
+        if w is None or i == r:
+            out.append(first[i])
+            continue
+        ref = np.interp(f.freq, ref_f, ref_line, left=np.nan, right=np.nan)
+        coh = None if f.coherence is None else f.coherence[:, w[0], w[1]]
+        out.append(phase_display(f.H[:, w[0], w[1]], coh, unwrap, reference=ref))
+    return out
+
+
+def _draw_channel(ax_m, ax_p, frf, s, a, style, color, label, phase):
+    ax_m.plot(frf.freq, db(frf.H[:, s, a]), style, color=color, label=label)
     if ax_p is None:
         return
-    coh = None if frf.coherence is None else frf.coherence[:, s, a]
-    line, points = phase_display(h, coh, unwrap)
+    line, points = phase
     ax_p.plot(*_broken(frf.freq, line), style, color=color)
     if np.any(np.isfinite(points)):
         ax_p.plot(frf.freq, points, ".", color=color, ms=2.5, alpha=0.6)
@@ -149,7 +213,9 @@ def bode(systems, labels=None, channels=None, path: str | os.PathLike | None = N
     One panel pair (magnitude over phase) per channel, wrapping into rows of at most
     ``max_cols`` panels; the figure size is capped so that many channels shrink the panels
     rather than grow the page.  Phase is unwrapped per channel where it is coherent and
-    drawn as scattered points where the data is noise (see :func:`phase_display`).
+    drawn as scattered points where the data is noise (see :func:`phase_display`); the
+    cleanest overlay of a channel fixes the 360-degree turn count of the others' coherent
+    stretches, so a noisy test and its model are drawn on the same turn.
 
     Parameters
     ----------
@@ -217,10 +283,12 @@ def bode(systems, labels=None, channels=None, path: str | os.PathLike | None = N
     cycle = _color_cycle()
     for k, (s, a) in enumerate(pairs):
         ax_m, ax_p = axes[k]
+        where_k = [w[k] for w in where]
+        phases = _channel_phases(frfs, where_k, unwrap) if phase else [None] * len(frfs)
         for i, frf in enumerate(frfs):
-            if where[i][k] is not None:
-                _draw_channel(ax_m, ax_p, frf, *where[i][k], STYLES[i % len(STYLES)],
-                              cycle[i % len(cycle)], legend[i] or None, unwrap)
+            if where_k[i] is not None:
+                _draw_channel(ax_m, ax_p, frf, *where_k[i], STYLES[i % len(STYLES)],
+                              cycle[i % len(cycle)], legend[i] or None, phases[i])
         ax_m.set_title(f"{ref.sensors[s]} / {ref.actuators[a]}", fontsize=10)
         ax_m.set_ylabel(db_label(q), fontsize=9)
         bottom = ax_m if ax_p is None else ax_p
