@@ -267,6 +267,10 @@ def test_envelope_over_samples_and_uncertain_model():
     verts = fig.axes[0].collections[0].get_paths()[0].vertices
     assert np.isclose(verts[:, 1].min(), _db(np.abs(H).min(axis=0)).min())
     assert np.isclose(verts[:, 1].max(), _db(np.abs(H).max(axis=0)).max())
+    # the grid of an FRF nominal serves the sampled StateSpace objects
+    fig = sd.plot.envelope(samples, nominal=nm.frf(f), channels=[("B.x", "A.x")])
+    verts2 = fig.axes[0].collections[0].get_paths()[0].vertices
+    np.testing.assert_allclose(verts2, verts)
     with pytest.raises(ValueError, match="freq must be given"):
         sd.plot.envelope(um)
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sdctrl.frf import FRF
 from sdctrl.plot import _channels as ch
 from sdctrl.plot._figure import (
     FREQ_LABEL,
@@ -157,8 +158,6 @@ def _align_runs(line: np.ndarray, coherent: np.ndarray, reference: np.ndarray) -
 
 
 def _default_labels(items) -> list[str]:
-    from sdctrl.frf import FRF
-
     if len(items) == 1:
         return [""]
     return [("FRF" if isinstance(it, FRF) else type(it).__name__) + f" {i}"
@@ -351,8 +350,8 @@ def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.Pat
         normalised uncertainty, displacement outputs) or the sampled systems themselves
         (e.g. ``um.sample(50)`` or FRFs of repeated tests), all on one frequency grid.
     freq : array_like, optional
-        Frequencies (Hz) at which models are evaluated; default the grid of the first FRF
-        among ``samples`` (or of ``nominal``).
+        Frequencies (Hz) at which models are evaluated; default the grid of an FRF
+        ``nominal``, else of the first FRF among ``samples``.
     nominal : FRF, model or control.StateSpace, optional
         Drawn as a line over the band; for an uncertain model its own nominal by default.
     channels : (sensor, actuator) pair or sequence of pairs, optional
@@ -383,6 +382,8 @@ def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.Pat
                                                  n_samples, seed)
         what = "samples and vertices"
     else:
+        if freq is None and isinstance(nominal, FRF):
+            freq = nominal.freq
         frfs, q = ch.to_frfs(ch.as_list(samples, "samples"), freq, quantity, "samples")
         ref = frfs[0]
         if any(f.freq.shape != ref.freq.shape or np.any(f.freq != ref.freq) for f in frfs):
