@@ -1,0 +1,24 @@
+"""Matplotlib figures of sdctrl: responses, identification, shapes, maps.
+
+Every function returns a :class:`matplotlib.figure.Figure`, never calls ``show()``, and
+saves the figure when given ``path=`` (the figure is then closed).  matplotlib is imported
+only when a figure is drawn; a headless Linux session uses the ``Agg`` backend.
+
+- :func:`bode` -- overlays of FRFs, models and StateSpace objects, channels by label;
+- :func:`envelope` -- min/max band of ``|H|`` of an uncertain model or of samples;
+- :func:`cmif` -- indicator function (singular values of ``H`` per frequency);
+- :func:`stabilisation` -- poles per model order / iteration over the CMIF;
+- :func:`mac` -- MAC matrix heat map (4.9);
+- :func:`complex_residues` -- residues of a mode in the complex plane (Figure 3.5);
+- :func:`mode_shapes` -- mode shapes on the FE geometry (wireframe, 3-D);
+- :func:`cost_map` -- cost over two parameters with its optimum (Figure 4.6).
+"""
+
+from sdctrl.plot.indicators import cmif, stabilisation, stabilisation_flags, stabilization
+from sdctrl.plot.maps import cost_map, mac
+from sdctrl.plot.responses import bode, envelope, phase_display
+from sdctrl.plot.shapes import complex_residues, mode_shapes, phase_dispersion
+
+__all__ = ["bode", "cmif", "complex_residues", "cost_map", "envelope", "mac", "mode_shapes",
+           "phase_dispersion", "phase_display", "stabilisation", "stabilisation_flags",
+           "stabilization"]
