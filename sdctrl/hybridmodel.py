@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from sdctrl._validate import as_array
-from sdctrl.fe.model import io_shapes
+from sdctrl.fe.validation import io_shapes
 from sdctrl.modal import NormalModeModel
 
 __all__ = ["HybridModel", "expand", "hybrid", "modify", "pair_modes", "pairing_report",
@@ -411,16 +411,13 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     gam = [np.asarray(nm.Gamma), np.diag(2 * zeta_mean * w_app)]
 
     if static_b is not None:
-        from sdctrl.fe.model import principal_static_modes
+        from sdctrl.fe.static import principal_static_basis
 
         Bs, _ = _input_shapes(static_b, N, fe.dofs, "static_b")
         Ps = fe.static_correction(Bs, phi_fe)
         Ps = Ps - phi_fe @ (phi_fe.T @ np.asarray(fe.M @ Ps))
-        V = principal_static_modes(Ps, fe.M)
+        V, wc2 = principal_static_basis(Ps, fe.M, fe.K)
         if V.shape[1]:
-            Kc = V.T @ np.asarray(fe.K @ V)
-            wc2, Rc = np.linalg.eigh(0.5 * (Kc + Kc.T))
-            V = V @ Rc
             wc2 = np.clip(wc2, 0, None)
             blocks_shapes.append(V)
             w2.append(wc2)

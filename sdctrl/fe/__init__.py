@@ -1,9 +1,11 @@
-"""Finite elements: :class:`FEModel` (modes, static correction 2.21, principal static
-modes 4.24, normal-mode models 2.15/2.22) and a small element library with a
+"""Finite elements: :class:`FEModel` (model.py, validation.py) with its normal modes
+(eigen.py), static correction 2.21 and principal static modes 4.24 (static.py) and
+normal-mode models 2.15/2.22 (reduction.py), and a small element library with a
 vectorised sparse assembler (bar, 3-D Euler-Bernoulli beam, lumped mass/inertia,
 spring, dashpot).
 """
 
+from sdctrl.fe.eigen import DENSE_MAX, RIGID_RTOL
 from sdctrl.fe.elements import (
     DIRECTIONS,
     assemble,
@@ -12,7 +14,8 @@ from sdctrl.fe.elements import (
     beam_axes,
     beam_matrices,
 )
-from sdctrl.fe.model import DENSE_MAX, RIGID_RTOL, FEModel, principal_static_modes
+from sdctrl.fe.model import FEModel
+from sdctrl.fe.static import principal_static_modes
 
 __all__ = [
     "DENSE_MAX",
