@@ -14,7 +14,8 @@ import scipy.sparse.linalg as spla
 
 from sdctrl._validate import as_array
 
-__all__ = ["check_matrix", "check_positive_definite", "io_shapes"]
+__all__ = ["check_fe_model", "check_matrix", "check_positive_definite", "io_shapes",
+           "shapes_on_dofs"]
 
 _SYM_RTOL = 1e-8
 
@@ -103,11 +104,30 @@ def check_positive_definite(M, name: str = "M") -> None:
 
 
 def io_shapes(x, N: int, point, name: str, output: bool = False):
-    """Input shapes (N, k) or output shapes (k, N) and their labels (internal).
+    """Input shapes (N, k) or output shapes (k, N) and their labels.
 
     ``x`` is an array (dense or sparse; a 1-D array is one input/output) or DOF label(s),
     turned into point shapes by ``point(labels) -> (N, k)``; the labels are returned when
     given, else None.
+
+    Parameters
+    ----------
+    x : array_like, sparse matrix, str or sequence of str
+        The shapes, or DOF labels.
+    N : int
+        Number of DOFs.
+    point : callable
+        ``point(labels) -> (N, k)`` unit point shapes of DOF labels.
+    name : str
+        Name of ``x`` in error messages.
+    output : bool
+        Output shapes (k, N) instead of input shapes (N, k).
+
+    Returns
+    -------
+    shapes : ndarray
+        (N, k) or (k, N).
+    labels : tuple of str or None
     """
     if isinstance(x, str) or (isinstance(x, Sequence) and x and
                               all(isinstance(v, str) for v in x)):
@@ -126,3 +146,59 @@ def io_shapes(x, N: int, point, name: str, output: bool = False):
         if A.shape[0] != N:
             raise ValueError(f"{name} must have shape (N={N}, k), got {A.shape}")
     return A, None
+
+
+def shapes_on_dofs(x, N: int, dofs, name: str, output: bool = False):
+    """:func:`io_shapes` on a list of DOF labels: labels give unit point shapes.
+
+    Parameters
+    ----------
+    x : array_like, sparse matrix, str or sequence of str
+        The shapes, or labels among ``dofs``.
+    N : int
+        Number of DOFs.
+    dofs : sequence of str or None
+        DOF labels of the N rows (None: labels are refused).
+    name : str
+        Name of ``x`` in error messages.
+    output : bool
+        Output shapes (k, N) instead of input shapes (N, k).
+
+    Returns
+    -------
+    shapes : ndarray
+        (N, k) or (k, N).
+    labels : tuple of str or None
+    """
+    return io_shapes(x, N, lambda labels: _dof_rows(dofs, labels, name), name, output)
+
+
+def _dof_rows(dofs: Sequence[str], labels, name: str) -> np.ndarray:
+    """(N, k) point shapes of DOF labels on ``dofs``."""
+    if dofs is None:
+        raise ValueError(f"{name} given as DOF labels but the model has no dofs")
+    labels = [labels] if isinstance(labels, str) else [str(v) for v in labels]
+    index = {d: i for i, d in enumerate(dofs)}
+    B = np.zeros((len(dofs), len(labels)))
+    for j, lab in enumerate(labels):
+        if lab not in index:
+            raise ValueError(f"{name}: unknown DOF label {lab!r} (labels look like "
+                             f"{dofs[0]!r})")
+        B[index[lab], j] = 1.0
+    return B
+
+
+def check_fe_model(fe, name: str = "fe") -> None:
+    """Raise TypeError unless ``fe`` is an :class:`~sdctrl.fe.FEModel`.
+
+    Parameters
+    ----------
+    fe : object
+        The argument.
+    name : str
+        Its name in the error message.
+    """
+    from sdctrl.fe.model import FEModel
+
+    if not isinstance(fe, FEModel):
+        raise TypeError(f"{name} must be an FEModel, got {type(fe).__name__}")
