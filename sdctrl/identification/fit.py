@@ -141,18 +141,9 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     >>> bool(abs(cm.frequency[0] - 10.0005) < 1e-3)
     True
     """
-    from sdctrl._validate import check_band
-    from sdctrl.frf import FRF
-
-    if not isinstance(frf, FRF):
-        raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
     max_iter = _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
                               significance)
-    fband = (float(frf.freq[0]), float(frf.freq[-1]))
-    data = frf
-    if band is not None:
-        fband = check_band(band, "band")
-        data = frf.band(*fband)
+    fband, data = _band(frf, band)
     nf = data.freq.size
     asym = (True, True) if asymptotic else (False, False)
     npp = n_per_pole(model)
@@ -204,6 +195,10 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
 def _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
                    significance) -> int:
     """Validate the options of :func:`identify`; returns ``max_iter`` with its default."""
+    from sdctrl.frf import FRF
+
+    if not isinstance(frf, FRF):
+        raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
     if model not in ("complex", "real"):
         raise ValueError(f"model must be 'complex' or 'real', got {model!r}")
     if optimizer not in ("varpro", "gradient", "none"):
@@ -220,6 +215,16 @@ def _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max
     if not np.all(np.isfinite(frf.H)):          # FRF validates, but keep the promise here too
         raise ValueError("frf.H must contain only finite values (no NaN or inf)")
     return max_iter
+
+
+def _band(frf, band):
+    """The band (Hz) and the FRF lines in it (all lines when ``band`` is None)."""
+    from sdctrl._validate import check_band
+
+    if band is None:
+        return (float(frf.freq[0]), float(frf.freq[-1])), frf
+    fband = check_band(band, "band")
+    return fband, frf.band(*fband)
 
 
 def _given_poles(poles, in_band, fband):
