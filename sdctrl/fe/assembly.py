@@ -161,7 +161,7 @@ def _parse_nodes(nodes):
     return names, xyz
 
 
-@dataclass
+@dataclass(eq=False)
 class _Elements:
     """Parsed elements: groups of members, lumped masses, discrete springs/dashpots."""
 

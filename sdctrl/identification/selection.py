@@ -108,7 +108,22 @@ class AutoSelection:
         self.best = None
 
     def fit(self, w, z, side, only=None):
-        """Pole search from ``(w, z)``; returns the poles, their evaluation and the info."""
+        """Pole search from ``(w, z)``.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Initial natural frequencies (rad/s) and damping ratios.
+        side : ndarray of int
+            0 in band, -1 below, +1 above.
+        only : array_like of int, optional
+            Poles searched (the others fixed).
+
+        Returns
+        -------
+        tuple
+            ``(w, z, ev, info)``: the poles, their evaluation and the search info.
+        """
         w, z, info = search_poles(self.prob, w, z, side, self.fband, self.optimizer,
                                   self.max_iter, self.tol, only)
         if not info.get("converged", True):
@@ -118,15 +133,58 @@ class AutoSelection:
         return w, z, ev, info
 
     def significance(self, w, z, ev):
-        """Cost increase of removing each pole over its noise threshold (>1 keeps)."""
+        """Cost increase of removing each pole over its noise threshold (>1 keeps).
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Poles of the fit.
+        ev : dict
+            Their evaluation.
+
+        Returns
+        -------
+        ndarray
+        """
         return self.noise.significance(w.size, ev)
 
     def missed(self, w, z, ev, max_add=6):
-        """Missed modes (frequency Hz, damping) in the residual, strongest first."""
+        """Missed modes (frequency Hz, damping) in the residual, strongest first.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Poles of the fit.
+        ev : dict
+            Their evaluation.
+        max_add : int
+            Maximum number of candidates.
+
+        Returns
+        -------
+        list of (float, float)
+        """
         return self.scan.candidates(ev, self.tried, max_add)
 
     def prune(self, w, z, side, ev, info):
-        """Poles without the rejected or the insignificant ones, or None if all stay."""
+        """Poles without the rejected or the insignificant ones, or None if all stay.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Poles of the fit.
+        side : ndarray of int
+            0 in band, -1 below, +1 above.
+        ev : dict
+            Their evaluation.
+        info : dict
+            The search info (``"at_bound"``).
+
+        Returns
+        -------
+        tuple or None
+            ``(w, z, side)`` of the poles kept.
+        """
         f = w / (2 * np.pi)
         reasons = self._rejected(w, z, side, info)
         if not reasons:
