@@ -29,8 +29,8 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 
 import sdctrl as sd
+from sdctrl.identification import IdentificationWarning
 from sdctrl.identification.complex_modes import frf_array
-from sdctrl.identification.optimize import IdentificationWarning
 
 warnings.simplefilter("ignore", IdentificationWarning)
 

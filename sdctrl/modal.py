@@ -9,6 +9,11 @@ truncated low-frequency modes (2.15), (2.23)-(2.24).  Static correction modes (2
 are carried as ordinary modes (appended columns of ``cphi``/``phib``, critically damped
 entries of ``Gamma``), as :meth:`sdctrl.FEModel.normal_mode_model` builds them with
 ``static=True``.  All modal quantities describe the displacement/force system.
+
+The model-space algebra behind :meth:`NormalModeModel.modified` (reduced-coordinate
+changes, 4.17) and :meth:`NormalModeModel.with_feedback` (D-strut loops, 5.3-5.4) lives
+in :mod:`sdctrl._modal_ops`; reanalysis of changes given on physical DOFs is chapter IV's
+:mod:`sdctrl.updating.reanalysis`.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._modal_ops import modified, with_feedback
 from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
@@ -480,160 +486,3 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
         states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
     inputs, outputs = signal_names(model.sensors, model.actuators)
     return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
-
-
-def _sym_change(x, name: str, n: int) -> np.ndarray:
-    """Validated symmetric (n, n) change, zeros when ``x`` is None."""
-    if x is None:
-        return np.zeros((n, n))
-    X = check_square(x, name, n)
-    if np.abs(X - X.T).max() > 1e-8 * max(np.abs(X).max(), 1e-300):
-        raise ValueError(f"{name} must be symmetric")
-    return 0.5 * (X + X.T)
-
-
-def renormalised(model: NormalModeModel, mass, Gamma, Omega, **info) -> NormalModeModel:
-    """Normal modes of ``mass p'' + Gamma p' + Omega p = phib u`` (mass-normalised again).
-
-    Solves ``Omega T = mass T diag(w^2)`` with ``T^T mass T = I`` and returns the model in
-    the new coordinates ``p = T r``: ``Omega' = diag(w^2)``, ``Gamma' = T^T Gamma T``,
-    ``cphi T``, ``T^T phib``, ``shapes T``.  Raises ``ValueError`` if ``mass`` is not
-    positive definite.
-    """
-    import scipy.linalg as sla
-
-    try:
-        w2, T = sla.eigh(0.5 * (Omega + Omega.T), 0.5 * (mass + mass.T))
-    except np.linalg.LinAlgError as exc:
-        raise ValueError("the modified modal mass I + dmu must be positive definite") from exc
-    G = T.T @ Gamma @ T
-    return model.replace(
-        Omega=np.diag(w2), Gamma=0.5 * (G + G.T), cphi=model.cphi @ T, phib=T.T @ model.phib,
-        shapes=None if model.shapes is None else model.shapes @ T,
-        info={**model.info, **info, "transformation": T})
-
-
-def modified(model: NormalModeModel, dmu=None, dGamma=None, dOmega=None) -> NormalModeModel:
-    """Model after reduced-coordinate changes (4.17), re-expressed on its own normal modes.
-
-    ``(I + dmu) p'' + (Gamma + dGamma) p' + (Omega + dOmega) p = phib u``; the modified
-    mass/stiffness pair is diagonalised again (``T^T (I + dmu) T = I``) so that the result
-    keeps the mass-normalised form (``Omega`` diagonal, ``Gamma`` full).  For changes given on
-    physical DOFs, ``dmu = phi^T dM phi`` etc. with ``phi`` = ``model.shapes``.
-
-    Parameters
-    ----------
-    model : NormalModeModel
-    dmu : array_like, shape (n, n), optional
-        Modal mass change (symmetric).
-    dGamma : array_like, shape (n, n), optional
-        Modal damping change, rad/s (symmetric).
-    dOmega : array_like, shape (n, n), optional
-        Modal stiffness change, (rad/s)^2 (symmetric).
-
-    Returns
-    -------
-    NormalModeModel
-        ``info["transformation"]`` holds ``T`` (old modal coordinates = ``T`` new ones).
-
-    Raises
-    ------
-    ValueError
-        Wrong shapes, non-symmetric changes, or ``I + dmu`` not positive definite.
-    """
-    n = model.n
-    dM = _sym_change(dmu, "dmu", n)
-    dG = _sym_change(dGamma, "dGamma", n)
-    dK = _sym_change(dOmega, "dOmega", n)
-    return renormalised(model, np.eye(n) + dM, model.Gamma + dG, model.Omega + dK,
-                        modified=True)
-
-
-def _gain(k, m: int, name: str) -> np.ndarray:
-    """Gain as an (m, m) matrix from a scalar, an (m,) vector or an (m, m) matrix."""
-    g = as_array(k, name, ndim=(0, 1, 2))
-    if g.ndim == 0:
-        return float(g) * np.eye(m)
-    if g.ndim == 1:
-        if g.size != m:
-            raise ValueError(f"{name} must be a scalar, ({m},) or ({m}, {m}), got {g.shape}")
-        return np.diag(g)
-    if g.shape != (m, m):
-        raise ValueError(f"{name} must be a scalar, ({m},) or ({m}, {m}), got {g.shape}")
-    return g
-
-
-def with_feedback(model: NormalModeModel, b, c, kp=0.0, kv=0.0,
-                  modal: bool = False) -> NormalModeModel:
-    """Closed loop of a relative force feedback ``F = -kv y' - kp y`` (D-strut, 5.3-5.4).
-
-    With ``y = c q`` and the force entering as ``b F``, the modal equations become
-    ``p'' + (Gamma + phib_k Kv cphi_k) p' + (Omega + phib_k Kp cphi_k) p = phib u`` where
-    ``phib_k = phi^T b`` and ``cphi_k = c phi``.  A strut (``b = c^T``) keeps both matrices
-    symmetric; the stiffened system is diagonalised again so ``Omega`` stays diagonal and the
-    added damping shows as a full ``Gamma``.
-
-    Parameters
-    ----------
-    model : NormalModeModel
-    b : array_like, shape (N, k) or (n, k)
-        Force input shapes on the DOFs of ``model.shapes``, or ``phi^T b`` if ``modal``.
-    c : array_like, shape (k, N) or (k, n)
-        Relative displacement measurements on those DOFs, or ``c phi`` if ``modal``.
-    kp : float or array_like, shape (k,) or (k, k)
-        Position gain (an added spring, force/displacement).
-    kv : float or array_like, shape (k,) or (k, k)
-        Velocity gain (an added dashpot, force/velocity).
-    modal : bool
-        True when ``b``, ``c`` are the modal ``phi^T b`` (n, k) and ``c phi`` (k, n).
-
-    Returns
-    -------
-    NormalModeModel
-        Same inputs and outputs as ``model``.
-
-    Raises
-    ------
-    ValueError
-        Shapes inconsistent with the model, ``modal=False`` on a model without ``shapes``, or
-        a loop that is not collocated (``phi^T b K c phi`` not symmetric): close such loops
-        with ``control.feedback`` on :meth:`NormalModeModel.to_statespace`.
-
-    Notes
-    -----
-    The static term ``E`` of the model is not part of the loop: models that must see the
-    residual flexibility at the strut carry static correction modes (2.22) as modes.
-    """
-    n = model.n
-    if modal:
-        pb = as_array(b, "b", ndim=2)
-        cp = as_array(c, "c", ndim=2)
-        if pb.shape[0] != n:
-            raise ValueError(f"b must have shape (n={n}, k) when modal=True, got {pb.shape}")
-        if cp.shape[1] != n:
-            raise ValueError(f"c must have shape (k, n={n}) when modal=True, got {cp.shape}")
-    else:
-        if model.shapes is None:
-            raise ValueError("the model has no shapes: give modal b = phi^T b and c = c phi "
-                             "with modal=True")
-        N = model.shapes.shape[0]
-        bb = as_array(b, "b", ndim=(1, 2))
-        cc = as_array(c, "c", ndim=(1, 2))
-        bb = bb.reshape(-1, 1) if bb.ndim == 1 else bb
-        cc = cc.reshape(1, -1) if cc.ndim == 1 else cc
-        if bb.shape[0] != N:
-            raise ValueError(f"b must have shape (N={N}, k), got {bb.shape}")
-        if cc.shape[1] != N:
-            raise ValueError(f"c must have shape (k, N={N}), got {cc.shape}")
-        pb, cp = model.shapes.T @ bb, cc @ model.shapes
-    k = pb.shape[1]
-    if cp.shape[0] != k:
-        raise ValueError(f"b has {k} force inputs but c has {cp.shape[0]} measurements")
-    Kp, Kv = _gain(kp, k, "kp"), _gain(kv, k, "kv")
-    dK, dC = pb @ Kp @ cp, pb @ Kv @ cp
-    for name, X in (("kp", dK), ("kv", dC)):
-        if np.abs(X - X.T).max() > 1e-8 * max(np.abs(X).max(), 1e-300):
-            raise ValueError(f"the {name} loop is not collocated (phi^T b {name} c phi is not "
-                             "symmetric): close it with control.feedback on to_statespace()")
-    return renormalised(model, np.eye(n), model.Gamma + 0.5 * (dC + dC.T),
-                        model.Omega + 0.5 * (dK + dK.T), feedback={"kp": Kp, "kv": Kv})

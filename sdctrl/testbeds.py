@@ -66,7 +66,7 @@ def _dashpots(truss, plates):
 
 
 def _build():
-    from sdctrl.fe.elements import assemble
+    from sdctrl.fe.assembly import assemble
 
     truss, plates = _node_names()
     nodes, els = {}, []

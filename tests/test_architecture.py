@@ -38,10 +38,11 @@ ROOT = pathlib.Path(sd.__file__).resolve().parent
 #: is reserved for ``sd.diagnose``.  A bare ``import sdctrl`` (which re-exports everything)
 #: is allowed only at the end of the flow (``LAST``).
 ORDER = [
-    "sdctrl.config", "sdctrl._validate", "sdctrl._util", "sdctrl._progress",
+    "sdctrl.config", "sdctrl._validate", "sdctrl._util", "sdctrl._progress", "sdctrl._threads",
     "sdctrl._statespace",
-    "sdctrl.frf", "sdctrl.io", "sdctrl.uncertainty", "sdctrl.modal", "sdctrl.identification",
-    "sdctrl.fe", "sdctrl.updating", "sdctrl.hybridmodel", "sdctrl.testbeds",
+    "sdctrl.frf", "sdctrl.io", "sdctrl.uncertainty", "sdctrl._modal_ops", "sdctrl.modal",
+    "sdctrl.identification", "sdctrl.fe", "sdctrl.updating", "sdctrl.predictions",
+    "sdctrl.hybridmodel", "sdctrl.testbeds",
     "sdctrl.closedloop", "sdctrl.robust", "sdctrl.placement", "sdctrl.testing",
     "sdctrl.diagnosis", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
 ]

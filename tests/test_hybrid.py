@@ -11,17 +11,11 @@ import scipy.sparse as sp
 from test_modal_ops import _chain
 
 import sdctrl as sd
-from sdctrl.hybridmodel import (
-    HybridModel,
-    expand,
-    hybrid,
-    modify,
-    pairing_report,
-    strut_feedback,
-    with_io,
-)
+from sdctrl.hybridmodel import hybrid, pairing_report
+from sdctrl.predictions import HybridModel, modify, strut_feedback, with_io
 from sdctrl.testbeds import SENSORS, SHAKERS
 from sdctrl.updating.costs import logls
+from sdctrl.updating.expansion import expand
 
 IN_BAND = np.arange(6, 18)          # testbed modes 7-18: the 8-60 Hz test band
 FREQ = np.linspace(8.0, 60.0, 250)

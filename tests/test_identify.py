@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
+from sdctrl.identification import IdentificationWarning
 from sdctrl.identification.complex_modes import ComplexModeModel, frf_array
-from sdctrl.identification.optimize import IdentificationWarning
 
 F_TRUE = np.array([17.0, 24.0, 29.0, 33.0, 33.165, 38.0, 44.0, 50.0, 55.0, 66.0])
 Z_TRUE = np.array([0.01, 0.008, 0.006, 0.003, 0.012, 0.01, 0.005, 0.007, 0.009, 0.01])
@@ -382,7 +382,7 @@ def test_compression_and_determinism():
     d = sd.identify(frfn, band=BAND, progress=False, compress_rank=26, seed=5)
     np.testing.assert_array_equal(c.poles, d.poles)                   # deterministic
     np.testing.assert_array_equal(c.residues, d.residues)
-    from sdctrl.identification.optimize import compress
+    from sdctrl.identification.compression import compress
     H = np.tile(frf.H.reshape(frf.freq.size, -1), (1, 20))            # 600 channels
     V, sv = compress(H, 30, seed=1)                                   # randomised path
     _Vx, svx = compress(H, 30, seed=2)
@@ -536,13 +536,13 @@ def test_progress_bar_and_interrupt(monkeypatch, capsys):
     sd.identify(frf, poles=lam, band=BAND, progress=True)
     assert "identify" in capsys.readouterr().err                 # tqdm bar on stderr
     # Ctrl-C during the automatic selection returns the last complete fit, flagged
-    from sdctrl.identification import optimize
+    from sdctrl.identification.selection import AutoSelection
 
     def interrupt(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(optimize._Auto, "missed", interrupt)
-    monkeypatch.setattr(optimize._Auto, "prune", lambda *a, **k: None)
+    monkeypatch.setattr(AutoSelection, "missed", interrupt)
+    monkeypatch.setattr(AutoSelection, "prune", lambda *a, **k: None)
     with pytest.warns(IdentificationWarning, match="interrupted"):
         cm = sd.identify(frf, band=BAND, progress=False)
     assert cm.info["interrupted"] and cm.n > 0

@@ -7,8 +7,8 @@ import pytest
 
 import sdctrl as sd
 from sdctrl._util import MAX_ROWS
-from sdctrl.hybridmodel import HybridModel
 from sdctrl.placement import Candidate, PlacementStudy, placement_study
+from sdctrl.predictions import HybridModel
 from sdctrl.robust import RobustResult, robust_stability
 from sdctrl.testbeds import SENSORS, SHAKERS
 from sdctrl.testing import RMSSnapshot

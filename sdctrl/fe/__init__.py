@@ -1,18 +1,15 @@
-"""Finite elements: :class:`FEModel` (modes, static correction 2.21, principal static
-modes 4.24, normal-mode models 2.15/2.22) and a small element library with a
-vectorised sparse assembler (bar, 3-D Euler-Bernoulli beam, lumped mass/inertia,
-spring, dashpot).
+"""Finite elements: :class:`FEModel` (model.py, validation.py) with its normal modes
+(eigen.py), static correction 2.21 and principal static modes 4.24 (static.py) and
+normal-mode models 2.15/2.22 (reduction.py), and a small element library (elements.py:
+bar, 3-D Euler-Bernoulli beam) with a vectorised sparse assembler (assembly.py: also
+lumped mass/inertia, spring, dashpot).
 """
 
-from sdctrl.fe.elements import (
-    DIRECTIONS,
-    assemble,
-    assemble_coo,
-    bar_matrices,
-    beam_axes,
-    beam_matrices,
-)
-from sdctrl.fe.model import DENSE_MAX, RIGID_RTOL, FEModel, principal_static_modes
+from sdctrl.fe.assembly import DIRECTIONS, assemble, assemble_coo
+from sdctrl.fe.eigen import DENSE_MAX, RIGID_RTOL
+from sdctrl.fe.elements import bar_matrices, beam_axes, beam_matrices
+from sdctrl.fe.model import FEModel
+from sdctrl.fe.static import principal_static_modes
 
 __all__ = [
     "DENSE_MAX",

@@ -1,10 +1,12 @@
-"""Finite element models: validation, normal modes, static correction modes, modal models.
+"""Finite element models: the :class:`FEModel` container, its validation and its doors.
 
 ``M q'' + C q' + K q = b u``, ``y = c q`` on ``N`` physical DOFs labelled
 ``"<node>.<x|y|z|rx|ry|rz>"``.  The thesis uses FE models through their normal
 modes (2.15) completed by static correction modes (2.21)-(2.22), orthogonalised as
 principal static modes (4.24) and, for hybrid models, through the DOF labels that
-tie a test to the mesh.
+tie a test to the mesh.  The methods are thin doors into :mod:`sdctrl.fe.eigen` (normal
+and rigid-body modes), :mod:`sdctrl.fe.static` (static solutions, 2.21, 4.23, 4.24) and
+:mod:`sdctrl.fe.reduction` (normal-mode models, 2.15, 2.22).
 
 Conventions: mass-normalised modes ``phi^T M phi = I``, ``phi^T K phi = diag(omega^2)``
 with ``omega`` in rad/s; frequencies returned to users in Hz.
@@ -16,144 +18,15 @@ from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from sdctrl._validate import QUANTITY_POWER, as_array, check_freq, check_labels, check_quantity
+from sdctrl._validate import as_array, check_freq, check_labels, check_quantity
+from sdctrl.fe import eigen, reduction
+from sdctrl.fe import static as statics
+from sdctrl.fe.eigen import RIGID_RTOL
+from sdctrl.fe.validation import check_matrix, check_positive_definite, io_shapes
 
-__all__ = ["DENSE_MAX", "RIGID_RTOL", "FEModel", "principal_static_modes"]
-
-#: eigenvalues below ``RIGID_RTOL * max(diag K / diag M)`` are rigid-body modes
-RIGID_RTOL = 1e-12
-#: ``modes(method="auto")`` uses the dense ``eigh`` up to this many DOFs
-DENSE_MAX = 1200
-_SYM_RTOL = 1e-8
-
-
-# ----------------------------------------------------------------------------------------
-# validation helpers
-# ----------------------------------------------------------------------------------------
-def _matrix(X, name: str, n: int | None = None):
-    if X is None:
-        raise TypeError(f"{name} must be a square matrix (numpy array or scipy.sparse), got None")
-    if sp.issparse(X):
-        if X.ndim != 2 or X.shape[0] != X.shape[1]:
-            raise ValueError(f"{name} must be a square (n, n) matrix, got shape {X.shape}")
-        if np.iscomplexobj(X.data) and np.any(X.data.imag != 0):
-            raise TypeError(f"{name} must be real, got complex values")
-        out = sp.csr_matrix(X, dtype=float, copy=True)
-        out.sum_duplicates()
-        if out.nnz and not np.all(np.isfinite(out.data)):
-            raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
-    else:
-        out = as_array(X, name, ndim=2)
-        if out.shape[0] != out.shape[1]:
-            raise ValueError(f"{name} must be a square (n, n) matrix, got shape {out.shape}")
-    if n is not None and out.shape[0] != n:
-        raise ValueError(f"{name} must have shape ({n}, {n}) like M, got {out.shape}")
-    if out.shape[0] == 0:
-        raise ValueError(f"{name} must have at least one DOF, got shape {out.shape}")
-    scale = abs(out).max() if out.shape[0] else 0.0
-    asym = abs(out - out.T).max()
-    if asym > _SYM_RTOL * max(scale, 1e-300):
-        raise ValueError(f"{name} must be symmetric (max |{name} - {name}^T| = {asym:.3g}, "
-                         f"max |{name}| = {scale:.3g})")
-    return out
-
-
-def _check_pd(M, name: str = "M") -> None:
-    """Raise ValueError unless ``M`` is positive definite (Cholesky / pivot test)."""
-    msg = f"{name} must be positive definite (every DOF needs mass or inertia)"
-    if not sp.issparse(M):
-        try:
-            np.linalg.cholesky(M)
-        except np.linalg.LinAlgError:
-            raise ValueError(msg) from None
-        return
-    d = M.diagonal()
-    if np.any(d <= 0):
-        bad = int(np.argmin(d))
-        raise ValueError(f"{msg}; diagonal entry {bad} is {d[bad]:g}")
-    if M.nnz == np.count_nonzero(d):          # diagonal (lumped) mass
-        return
-    # symmetric-mode sparse LU without row pivoting is an LDL^T factorisation: M is
-    # positive definite iff every pivot is positive.
-    try:
-        lu = spla.splu(M.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
-    except RuntimeError:
-        raise ValueError(msg + " (singular)") from None
-    if np.array_equal(lu.perm_r, lu.perm_c):
-        if np.any(lu.U.diagonal() <= 0):
-            raise ValueError(msg)
-        return
-    lam = spla.eigsh(M, k=1, which="SA", return_eigenvectors=False, tol=1e-8)  # rare path
-    if lam[0] <= 0:
-        raise ValueError(msg)
-
-
-def io_shapes(x, N: int, point, name: str, output: bool = False):
-    """Input shapes (N, k) or output shapes (k, N) and their labels (internal).
-
-    ``x`` is an array (dense or sparse; a 1-D array is one input/output) or DOF label(s),
-    turned into point shapes by ``point(labels) -> (N, k)``; the labels are returned when
-    given, else None.
-    """
-    if isinstance(x, str) or (isinstance(x, Sequence) and x and
-                              all(isinstance(v, str) for v in x)):
-        labels = (x,) if isinstance(x, str) else tuple(str(v) for v in x)
-        B = point(list(labels))
-        return (B.T.copy() if output else B), labels
-    if sp.issparse(x):
-        x = x.toarray()
-    A = as_array(x, name, ndim=(1, 2))
-    if output:
-        A = A[None, :] if A.ndim == 1 else A
-        if A.shape[1] != N:
-            raise ValueError(f"{name} must have shape (k, N={N}), got {A.shape}")
-    else:
-        A = A[:, None] if A.ndim == 1 else A
-        if A.shape[0] != N:
-            raise ValueError(f"{name} must have shape (N={N}, k), got {A.shape}")
-    return A, None
-
-
-def principal_static_modes(phi_s, M, rtol: float = 1e-8) -> np.ndarray:
-    """Principal static modes by the mass-orthogonal SVD, eq. (4.24).
-
-    The eigenvalues ``Sigma_s`` and eigenvectors ``Psi_s`` of ``phi_s^T M phi_s`` give
-    ``phi_sp = phi_s Psi_s Sigma_s^{-1/2}``; only directions with
-    ``Sigma_s > rtol * max(Sigma_s)`` are kept (largest first), which avoids the
-    conditioning problems of a Schmidt orthogonalisation.
-
-    Parameters
-    ----------
-    phi_s : array_like, shape (N, k)
-        Static (correction) modes, e.g. from :meth:`FEModel.static_correction`.
-    M : array_like or sparse matrix, shape (N, N)
-        Mass matrix.
-    rtol : float
-        Relative threshold on the mass-orthogonal singular values.
-
-    Returns
-    -------
-    ndarray, shape (N, k')
-        Mass-orthonormal basis (``phi_sp^T M phi_sp = I``) of the significant part of
-        ``span(phi_s)``, ``k' <= k``.
-    """
-    P = np.asarray(phi_s, float)
-    if P.ndim == 1:
-        P = P[:, None]
-    S = P.T @ (M @ P)
-    S = 0.5 * (S + S.T)
-    sig, psi = np.linalg.eigh(S)
-    order = np.argsort(sig)[::-1]
-    sig, psi = sig[order], psi[:, order]
-    if sig.size == 0 or sig[0] <= 0:
-        return np.zeros((P.shape[0], 0))
-    keep = sig > rtol * sig[0]
-    return P @ (psi[:, keep] / np.sqrt(sig[keep]))
+__all__ = ["FEModel"]
 
 
 # ----------------------------------------------------------------------------------------
@@ -189,7 +62,9 @@ class FEModel:
     -----
     If any matrix is sparse, all three are stored as ``scipy.sparse.csr_matrix``;
     otherwise as read-only dense arrays.  The model is immutable: factorisations and
-    computed modes are cached on it.
+    computed modes are cached on it, keyed on the request only (``modes(n, method,
+    sigma)`` always returns the result of that very request; rigid-body modes come from a
+    fixed sequence of solves), so no result depends on the order of the calls.
 
     Examples
     --------
@@ -204,11 +79,11 @@ class FEModel:
 
     def __init__(self, M, K, C=None, dofs: Sequence[str] | None = None,
                  nodes: Mapping | None = None, elements: Sequence | None = None):
-        Mv = _matrix(M, "M")
+        Mv = check_matrix(M, "M")
         N = Mv.shape[0]
-        Kv = _matrix(K, "K", N)
-        Cv = None if C is None else _matrix(C, "C", N)
-        _check_pd(Mv, "M")
+        Kv = check_matrix(K, "K", N)
+        Cv = None if C is None else check_matrix(C, "C", N)
+        check_positive_definite(Mv, "M")
         if any(sp.issparse(X) for X in (Mv, Kv, Cv) if X is not None):
             Mv, Kv = sp.csr_matrix(Mv), sp.csr_matrix(Kv)
             Cv = None if Cv is None else sp.csr_matrix(Cv)
@@ -385,49 +260,24 @@ class FEModel:
         """(k, N) output array and labels."""
         return io_shapes(c, self.N, self.point, name, output=True)
 
-    # --- eigen solutions ---------------------------------------------------------------
+    # --- eigen solutions (sdctrl.fe.eigen) ----------------------------------------------
     def _scale(self) -> tuple[float, float]:
         """(median, max) of positive ``diag K / diag M`` (rad/s)^2."""
         if "scale" not in self._cache:
-            r = np.asarray(self.K.diagonal(), float) / np.asarray(self.M.diagonal(), float)
-            r = r[r > 0]
-            self._cache["scale"] = (float(np.median(r)), float(r.max())) if r.size else (1.0, 1.0)
+            self._cache["scale"] = eigen.diagonal_scale(self.K, self.M)
         return self._cache["scale"]
 
     def _rigid_threshold(self) -> float:
         return RIGID_RTOL * self._scale()[1]
 
-    def _eig(self, n: int, method: str, sigma: float | None):
-        N = self.N
-        if method == "dense":
-            K = self.K.toarray() if self.sparse else np.asarray(self.K)
-            M = self.M.toarray() if self.sparse else np.asarray(self.M)
-            lam, phi = sla.eigh(K, M, subset_by_index=[0, n - 1])
-            # Rayleigh quotients: eigenvalues accurate to second order in the shapes
-            # (eigh's small eigenvalues carry an error ~ eps * lambda_max)
-            lam = np.einsum("ij,ij->j", phi, K @ phi) / np.einsum("ij,ij->j", phi, M @ phi)
-        else:
-            if n >= N - 1:
-                raise ValueError(f"n must be < N - 1 = {N - 1} for the sparse eigensolver, "
-                                 f"got {n}; use method='dense'")
-            if sigma is None:
-                sigma = -1e-6 * self._scale()[0]
-            v0 = np.random.default_rng(0).standard_normal(N)
-            K = self.K if self.sparse else sp.csr_matrix(self.K)
-            M = self.M if self.sparse else sp.csr_matrix(self.M)
-            lam, phi = spla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=float(sigma), which="LM",
-                                  v0=v0, ncv=min(N, max(2 * n + 1, n + 20)))
-            # Rayleigh-Ritz clean-up: exact M-orthonormality, accurate eigenvalues
-            Kr = phi.T @ (K @ phi)
-            Mr = phi.T @ (M @ phi)
-            lam, V = sla.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
-            phi = phi @ V
-        order = np.argsort(lam)
-        lam, phi = lam[order], phi[:, order]
-        idx = np.argmax(np.abs(phi), axis=0)
-        sgn = np.sign(phi[idx, np.arange(phi.shape[1])])
-        sgn[sgn == 0] = 1.0
-        return lam, phi * sgn
+    def _eigen(self, n: int, method: str = "auto", sigma: float | None = None):
+        """Eigenvalues (rad/s)^2 and shapes of the lowest ``n`` modes, cached on the request
+        (so a result never depends on the calls made before)."""
+        method = eigen.check_request(n, self.N, method)
+        key = ("modes", method, None if sigma is None else float(sigma), int(n))
+        if key not in self._cache:
+            self._cache[key] = eigen.eigensolve(self.K, self.M, int(n), method, sigma)
+        return self._cache[key]
 
     def modes(self, n: int, method: str = "auto", sigma: float | None = None):
         """Lowest ``n`` mass-normalised normal modes (rigid-body modes included).
@@ -454,22 +304,7 @@ class FEModel:
             Mass-normalised shapes, ``phi^T M phi = I``, sign fixed so that the largest
             entry of each shape is positive.
         """
-        if isinstance(n, bool) or not isinstance(n, int | np.integer):
-            raise TypeError(f"n must be an integer number of modes, got {type(n).__name__}")
-        if not 1 <= n <= self.N:
-            raise ValueError(f"n must lie in [1, N={self.N}], got {n}")
-        if method not in ("auto", "dense", "sparse"):
-            raise ValueError(f"method must be 'auto', 'dense' or 'sparse', got {method!r}")
-        if method == "auto":
-            method = "dense" if (self.N <= DENSE_MAX or n >= self.N - 1) else "sparse"
-        key = ("modes", method, None if sigma is None else float(sigma))
-        cached = self._cache.get(key)
-        if cached is None or cached[0].size < n:
-            lam, phi = self._eig(int(n), method, sigma)
-            self._cache[key] = (lam, phi)
-        lam, phi = self._cache[key]
-        self._cache["last_modes"] = (lam, phi)
-        lam, phi = lam[:n], phi[:, :n]
+        lam, phi = self._eigen(n, method, sigma)
         return np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi), phi.copy()
 
     def rigid_modes(self) -> np.ndarray:
@@ -483,56 +318,16 @@ class FEModel:
         ndarray, shape (N, r)
         """
         if "rigid" not in self._cache:
-            thr = self._rigid_threshold()
-            last = self._cache.get("last_modes")
-            if last is None or (np.all(last[0] < thr) and last[0].size < self.N):
-                k = min(self.N, 12)
-                while True:
-                    self.modes(k)
-                    last = self._cache["last_modes"]
-                    if not np.all(last[0] < thr) or k >= self.N:
-                        break
-                    k = min(self.N, 2 * k)
-            lam, phi = last
-            self._cache["rigid"] = phi[:, lam < thr].copy()
+            self._cache["rigid"] = eigen.rigid_modes(self._eigen, self.N,
+                                                     self._rigid_threshold())
         return self._cache["rigid"].copy()
 
-    # --- static solutions ------------------------------------------------------------------
+    # --- static solutions (sdctrl.fe.static) ---------------------------------------------
     def _static_solver(self):
-        if "static_solver" in self._cache:
-            return self._cache["static_solver"]
-        N = self.N
-        R = self.rigid_modes()
-        r = R.shape[1]
-        if r == 0:
-            if self.sparse:
-                lu = spla.splu(self.K.tocsc())
-                solve = lu.solve
-            else:
-                try:
-                    fac = sla.cho_factor(np.asarray(self.K))
-                    solve = lambda rhs: sla.cho_solve(fac, rhs)
-                except np.linalg.LinAlgError:
-                    fac = sla.lu_factor(np.asarray(self.K))
-                    solve = lambda rhs: sla.lu_solve(fac, rhs)
-        else:
-            # inertia relief: [[K, M R], [R^T M, 0]] [x; l] = [b; 0] gives
-            # K x = (I - M R R^T) b and R^T M x = 0, i.e. x = sum_flexible phi phi^T b / w^2
-            MR = np.asarray(self.M @ R)
-            if self.sparse:
-                A = sp.bmat([[self.K, sp.csr_matrix(MR)], [sp.csr_matrix(MR.T), None]]).tocsc()
-                lu = spla.splu(A)
-                full = lu.solve
-            else:
-                A = np.block([[np.asarray(self.K), MR], [MR.T, np.zeros((r, r))]])
-                fac = sla.lu_factor(A)
-                full = lambda rhs: sla.lu_solve(fac, rhs)
-
-            def solve(rhs):
-                rhs = np.vstack([rhs, np.zeros((r, rhs.shape[1]))])
-                return full(rhs)[:N]
-        self._cache["static_solver"] = solve
-        return solve
+        if "static_solver" not in self._cache:
+            self._cache["static_solver"] = statics.static_solver(self.K, self.M,
+                                                                self.rigid_modes())
+        return self._cache["static_solver"]
 
     def static_response(self, b) -> np.ndarray:
         """Static response ``K^-1 b`` (factorised once, sparse when the model is sparse).
@@ -578,20 +373,7 @@ class FEModel:
             The correction shapes (mass- and stiffness-orthogonal to the retained modes).
         """
         B, _ = self._input(b, "b")
-        P = as_array(phi, "phi", ndim=(1, 2))
-        if P.ndim == 1:
-            P = P[:, None]
-        if P.shape[0] != self.N:
-            raise ValueError(f"phi must have shape (N={self.N}, m), got {P.shape}")
-        mu = np.einsum("ij,ij->j", P, np.asarray(self.M @ P))
-        if np.any(np.abs(mu - 1) > 1e-6):
-            raise ValueError("phi must be mass-normalised (phi^T M phi = I), got diagonal "
-                             f"entries in [{mu.min():.6g}, {mu.max():.6g}]")
-        X = self.static_response(B)
-        lam = np.einsum("ij,ij->j", P, np.asarray(self.K @ P))
-        flex = lam > self._rigid_threshold()
-        Pf = P[:, flex]
-        return X - Pf @ ((Pf.T @ B) / lam[flex][:, None])
+        return statics.static_correction(self, B, phi)
 
     def principal_static_modes(self, phi_s, rtol: float = 1e-8) -> np.ndarray:
         """Principal static modes of ``phi_s`` (mass-orthogonal SVD, eq. 4.24).
@@ -612,9 +394,9 @@ class FEModel:
         P = as_array(phi_s, "phi_s", ndim=(1, 2))
         if P.shape[0] != self.N:
             raise ValueError(f"phi_s must have shape (N={self.N}, k), got {P.shape}")
-        return principal_static_modes(P, self.M, rtol)
+        return statics.principal_static_modes(P, self.M, rtol)
 
-    # --- modal models ----------------------------------------------------------------------
+    # --- modal models (sdctrl.fe.reduction) ---------------------------------------------
     def normal_mode_model(self, b, c, n: int, damping=0.01, static=False, *,
                           static_damping: str = "critical",
                           sensors: Sequence[str] | None = None,
@@ -658,68 +440,15 @@ class FEModel:
             ``cphi``, ``phib``, ``shapes`` (N, n + k) on :attr:`dofs`;
             ``info["n_static"]`` counts the appended correction modes.
         """
-        from sdctrl.modal import NormalModeModel
-
         B, alab = self._input(b, "b")
         if c is None:
             Cm, slab = B.T.copy(), alab
         else:
             Cm, slab = self._output(c, "c")
-        freq, phi = self.modes(n)
-        n = phi.shape[1]
-        lam = np.clip(np.einsum("ij,ij->j", phi, np.asarray(self.K @ phi)), 0, None)
-        w = np.sqrt(lam)
-        z = np.asarray(damping, float)
-        if z.ndim == 0:
-            z = np.full(n, float(z))
-        if z.shape != (n,) or not np.all(np.isfinite(z)) or np.any(z < 0):
-            raise ValueError(f"damping must be a non-negative ratio or an array of {n} ratios")
-        if static not in (False, True, "modes", "E"):
-            raise ValueError(f"static must be False, True, 'modes' or 'E', got {static!r}")
-        if static_damping not in ("critical", "projected"):
-            raise ValueError("static_damping must be 'critical' or 'projected', got "
-                             f"{static_damping!r}")
-        if static_damping == "projected" and self.C is None:
-            raise ValueError("static_damping='projected' needs a damping matrix C")
-        Omega = np.diag(lam)
-        E = None
-        phiT = phi
-        info = {"source": "FEModel", "n_modes": n, "n_static": 0,
-                "frequency_hz": freq.copy()}
-        if static in (True, "modes"):
-            Ps = self.static_correction(B, phi)
-            Ps = Ps - phi @ (phi.T @ np.asarray(self.M @ Ps))    # exact M-orthogonality
-            X = self.static_response(B)
-            ref = np.einsum("ij,ij->", X, np.asarray(self.M @ X))
-            if np.einsum("ij,ij->", Ps, np.asarray(self.M @ Ps)) <= 1e-20 * ref:
-                Ps = Ps[:, :0]          # nothing left to correct (e.g. all modes retained)
-            V = principal_static_modes(Ps, self.M)
-            if V.shape[1]:
-                Kc = V.T @ np.asarray(self.K @ V)
-                wc2, Rc = np.linalg.eigh(0.5 * (Kc + Kc.T))
-                V = V @ Rc
-                phiT = np.hstack([phi, V])
-                Omega = np.diag(np.concatenate([lam, wc2]))
-                info["n_static"] = V.shape[1]
-                info["static_frequency_hz"] = np.sqrt(np.clip(wc2, 0, None)) / (2 * np.pi)
-        elif static == "E":
-            E = Cm @ self.static_correction(B, phi)
-        nT = phiT.shape[1]
-        if self.C is None:
-            Gamma = np.zeros((nT, nT))
-            Gamma[:n, :n] = np.diag(2 * z * w)
-        else:
-            Gamma = phiT.T @ np.asarray(self.C @ phiT)
-            Gamma = 0.5 * (Gamma + Gamma.T)
-        if nT > n and static_damping == "critical":
-            wc = np.sqrt(np.clip(np.diag(Omega)[n:], 0, None))
-            Gamma[n:, n:] = np.diag(2 * wc)                        # critical damping
-        if sensors is not None:
-            slab = sensors
-        if actuators is not None:
-            alab = actuators
-        return NormalModeModel(Omega, Gamma, Cm @ phiT, phiT.T @ B, E=E, sensors=slab,
-                               actuators=alab, shapes=phiT, dofs=self.dofs, info=info)
+        return reduction.normal_mode_model(
+            self, B, Cm, n, damping, static, static_damping=static_damping,
+            sensors=slab if sensors is None else sensors,
+            actuators=alab if actuators is None else actuators)
 
     # --- reference response ------------------------------------------------------------------
     def frf(self, freq, b, c=None, quantity: str = "displacement"):
@@ -752,21 +481,6 @@ class FEModel:
             Cm, slab = B.T.copy(), alab
         else:
             Cm, slab = self._output(c, "c")
-        if self.N > 4000:
-            raise ValueError(f"frf is a dense reference solution; N={self.N} is too large "
-                             "(use normal_mode_model(...).frf)")
-        dense = (lambda X: X.toarray()) if self.sparse else np.asarray
-        M, K = dense(self.M), dense(self.K)
-        C = np.zeros_like(M) if self.C is None else dense(self.C)
-        w = 2 * np.pi * f
-        N = self.N
-        H = np.empty((f.size, Cm.shape[0], B.shape[1]), complex)
-        chunk = max(1, int(1.5e7 // (N * N)))          # bound the memory of a batch
-        for i in range(0, f.size, chunk):               # batched over frequency lines
-            ww = w[i:i + chunk, None, None]
-            Z = K - ww**2 * M + 1j * ww * C
-            X = np.linalg.solve(Z, np.broadcast_to(B.astype(complex), (ww.shape[0],) + B.shape))
-            H[i:i + chunk] = Cm @ X
-        H = H * ((1j * w) ** QUANTITY_POWER[q])[:, None, None]
+        H = reduction.full_frf(self, f, B, Cm, q)
         return FRF(f, H, quantity=q, sensors=slab, actuators=alab)
 

@@ -1,8 +1,11 @@
 """Chapter III of the thesis: complex-mode identification and normal modes from complex modes.
 
 Public names are resolved lazily from the submodules:
-``initial_poles`` (poles.py), ``identify`` (optimize.py), ``ComplexModeModel``
-(complex_modes.py), ``normal_modes`` (proper.py).
+``initial_poles`` (poles.py), ``identify`` and ``IdentificationWarning`` (fit.py),
+``ComplexModeModel`` (complex_modes.py), ``normal_modes`` (proper.py).  The pole search
+of ``identify`` is cut along the thesis: data compression (compression.py), the pole
+update (3.18)-(3.19) (search.py), the noise field and significance test (noise.py), the
+missed-mode scan (scan.py) and the automatic pole selection (selection.py).
 
 The package is named ``identification`` (not ``identify``) so that ``sd.identify`` is a plain
 function: picklable, documented by ``help()``, and never shadowed by a module.
@@ -14,12 +17,14 @@ import importlib
 
 _EXPORTS = {
     "initial_poles": "sdctrl.identification.poles",
-    "identify": "sdctrl.identification.optimize",
+    "identify": "sdctrl.identification.fit",
+    "IdentificationWarning": "sdctrl.identification.fit",
     "ComplexModeModel": "sdctrl.identification.complex_modes",
     "normal_modes": "sdctrl.identification.proper",
 }
 
-__all__ = ["ComplexModeModel", "identify", "initial_poles", "normal_modes"]
+__all__ = ["ComplexModeModel", "IdentificationWarning", "identify", "initial_poles",
+           "normal_modes"]
 
 
 def __getattr__(name: str):

@@ -19,8 +19,8 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
-from threadpoolctl import ThreadpoolController
 
+from sdctrl._threads import single_thread
 from sdctrl._validate import check_collocated
 from sdctrl.identification.complex_modes import scale_residues
 
@@ -148,7 +148,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     if isinstance(maxiter, bool) or not isinstance(maxiter, int | np.integer) or maxiter < 1:
         raise ValueError(f"maxiter must be a positive integer, got {maxiter!r}")
 
-    with _single_thread():                         # small matrices: BLAS threads only hurt
+    with single_thread():                         # small matrices: BLAS threads only hurt
         cpsi, psib = scaled_modes(R, pairs)
         # --- reduced coordinates q_T (3.46)-(3.47) -------------------------------------
         info: dict = {"collocated": pairs}
@@ -375,20 +375,6 @@ def transformation(psi: np.ndarray, lam: np.ndarray):
 
 
 # --- helpers ---------------------------------------------------------------------------------
-_CONTROLLER: list = []
-
-
-def _single_thread():
-    """Context limiting BLAS to one thread (a cached controller: ~20 us instead of ~1 ms).
-
-    On small matrices OpenBLAS threads only add synchronisation; with 2 shared cores they
-    made small solves 10-300x slower.
-    """
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
-
-
 def _asymptotic(E, F, lam, R, info, rtol: float = 1e-10):
     """``E`` and ``F`` of the complex-mode model, None when negligible (round-off of a fit).
 

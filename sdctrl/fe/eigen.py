@@ -1,0 +1,166 @@
+"""Normal modes of FE models: dense and shift-invert sparse eigensolutions, rigid-body modes.
+
+``K phi = M phi diag(omega^2)`` with mass-normalised modes ``phi^T M phi = I`` (thesis 2.1),
+``omega`` in rad/s; the sign of each shape is fixed (largest entry positive) so that a
+result depends only on the matrices and the request.  Free structures have rigid-body
+modes at zero frequency: eigenvalues below :data:`RIGID_RTOL` times
+``max(diag K / diag M)``.
+
+The functions are pure (matrices in, arrays out); :class:`~sdctrl.fe.FEModel` caches their
+results keyed on the request only, so no result depends on the order of the calls.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = ["DENSE_MAX", "RIGID_RTOL", "check_request", "diagonal_scale", "eigensolve",
+           "rigid_modes"]
+
+#: eigenvalues below ``RIGID_RTOL * max(diag K / diag M)`` are rigid-body modes
+RIGID_RTOL = 1e-12
+#: ``modes(method="auto")`` uses the dense ``eigh`` up to this many DOFs
+DENSE_MAX = 1200
+
+
+def diagonal_scale(K, M) -> tuple[float, float]:
+    """(median, max) of the positive ``diag K / diag M`` in (rad/s)^2 ((1, 1) if none).
+
+    Parameters
+    ----------
+    K, M : ndarray or sparse matrix, shape (N, N)
+        Stiffness and mass.
+
+    Returns
+    -------
+    (float, float)
+    """
+    r = np.asarray(K.diagonal(), float) / np.asarray(M.diagonal(), float)
+    r = r[r > 0]
+    return (float(np.median(r)), float(r.max())) if r.size else (1.0, 1.0)
+
+
+def check_request(n, N: int, method: str) -> str:
+    """Validate a request for ``n`` modes of ``N`` DOFs; returns the resolved method.
+
+    Parameters
+    ----------
+    n : int
+        Number of modes, ``1 <= n <= N``.
+    N : int
+        Number of DOFs.
+    method : {"auto", "dense", "sparse"}
+        ``"auto"`` is dense up to :data:`DENSE_MAX` DOFs (or when ``n >= N - 1``).
+
+    Returns
+    -------
+    {"dense", "sparse"}
+    """
+    if isinstance(n, bool) or not isinstance(n, int | np.integer):
+        raise TypeError(f"n must be an integer number of modes, got {type(n).__name__}")
+    if not 1 <= n <= N:
+        raise ValueError(f"n must lie in [1, N={N}], got {n}")
+    if method not in ("auto", "dense", "sparse"):
+        raise ValueError(f"method must be 'auto', 'dense' or 'sparse', got {method!r}")
+    if method == "auto":
+        method = "dense" if (N <= DENSE_MAX or n >= N - 1) else "sparse"
+    return method
+
+
+def eigensolve(K, M, n: int, method: str, sigma: float | None = None):
+    """Lowest ``n`` eigenpairs of ``K phi = M phi lambda``, mass-normalised, signs fixed.
+
+    Parameters
+    ----------
+    K, M : ndarray or sparse matrix, shape (N, N)
+        Stiffness and mass (symmetric, ``M`` positive definite).
+    n : int
+        Number of modes.
+    method : {"dense", "sparse"}
+        ``scipy.linalg.eigh`` on a subset, or shift-invert ``eigsh`` followed by a
+        Rayleigh-Ritz clean-up (exact M-orthonormality, accurate eigenvalues).
+    sigma : float, optional
+        Shift (rad/s)^2 of the sparse solver; default ``-1e-6 median(diag K / diag M)``.
+
+    Returns
+    -------
+    lam : ndarray, shape (n,)
+        Eigenvalues (rad/s)^2, increasing (Rayleigh quotients for the dense solver).
+    phi : ndarray, shape (N, n)
+        Mass-normalised shapes, largest entry of each positive.
+    """
+    N = M.shape[0]
+    if method == "dense":
+        lam, phi = _dense(K, M, n)
+    else:
+        if n >= N - 1:
+            raise ValueError(f"n must be < N - 1 = {N - 1} for the sparse eigensolver, "
+                             f"got {n}; use method='dense'")
+        if sigma is None:
+            sigma = -1e-6 * diagonal_scale(K, M)[0]
+        lam, phi = _sparse(K, M, n, float(sigma))
+    order = np.argsort(lam)
+    lam, phi = lam[order], phi[:, order]
+    idx = np.argmax(np.abs(phi), axis=0)
+    sgn = np.sign(phi[idx, np.arange(phi.shape[1])])
+    sgn[sgn == 0] = 1.0
+    return lam, phi * sgn
+
+
+def _dense(K, M, n):
+    K = K.toarray() if sp.issparse(K) else np.asarray(K)
+    M = M.toarray() if sp.issparse(M) else np.asarray(M)
+    lam, phi = sla.eigh(K, M, subset_by_index=[0, n - 1])
+    # Rayleigh quotients: eigenvalues accurate to second order in the shapes
+    # (eigh's small eigenvalues carry an error ~ eps * lambda_max)
+    lam = np.einsum("ij,ij->j", phi, K @ phi) / np.einsum("ij,ij->j", phi, M @ phi)
+    return lam, phi
+
+
+def _sparse(K, M, n, sigma):
+    N = M.shape[0]
+    v0 = np.random.default_rng(0).standard_normal(N)
+    K = K if sp.issparse(K) else sp.csr_matrix(K)
+    M = M if sp.issparse(M) else sp.csr_matrix(M)
+    lam, phi = spla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM",
+                          v0=v0, ncv=min(N, max(2 * n + 1, n + 20)))
+    # Rayleigh-Ritz clean-up: exact M-orthonormality, accurate eigenvalues
+    Kr = phi.T @ (K @ phi)
+    Mr = phi.T @ (M @ phi)
+    lam, V = sla.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
+    return lam, phi @ V
+
+
+def rigid_modes(eigen: Callable, N: int, threshold: float) -> np.ndarray:
+    """Rigid-body modes: the eigenvectors below ``threshold``, from a fixed ladder of solves.
+
+    ``eigen(k)`` is asked for ``k = min(N, 12)`` modes, doubled until a flexible mode shows
+    (or all ``N`` are computed), so the result depends only on the model.
+
+    Parameters
+    ----------
+    eigen : callable
+        ``eigen(k) -> (lam, phi)``, the lowest ``k`` eigenpairs (e.g. a cached
+        :func:`eigensolve`).
+    N : int
+        Number of DOFs.
+    threshold : float
+        Eigenvalue (rad/s)^2 below which a mode is rigid.
+
+    Returns
+    -------
+    ndarray, shape (N, r)
+        Mass-normalised rigid-body modes (r = 0 for a fixed structure).
+    """
+    k = min(N, 12)
+    while True:
+        lam, phi = eigen(k)
+        if not np.all(lam < threshold) or k >= N:
+            break
+        k = min(N, 2 * k)
+    return phi[:, lam < threshold].copy()

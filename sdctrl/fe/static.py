@@ -1,0 +1,160 @@
+"""Static solutions of FE models: flexibility, static correction modes (2.21), (4.23) and
+principal static modes (4.24).
+
+``K^-1 b`` is computed with one factorisation of ``K`` (sparse when the model is); for a
+free structure (rigid-body modes ``R``) ``K`` is singular and the inertia-relief
+flexibility is used instead: the exact solution of ``[[K, M R], [R^T M, 0]] [x; l] =
+[b; 0]``.  The static correction modes remove the retained modes' static part,
+``phi_C = (K^-1 - sum_j phi_j phi_j^T / omega_j^2) b`` (2.21), (4.23); the principal static
+modes orthonormalise them by the mass-orthogonal SVD (4.24).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from sdctrl._validate import as_array
+from sdctrl.fe.eigen import RIGID_RTOL, diagonal_scale
+
+__all__ = ["principal_static_basis", "principal_static_modes", "static_correction",
+           "static_solver"]
+
+
+def static_solver(K, M, R):
+    """Solver ``rhs (N, k) -> K^-1 rhs`` (inertia relief when there are rigid modes).
+
+    Parameters
+    ----------
+    K, M : ndarray or sparse matrix, shape (N, N)
+        Stiffness and mass.
+    R : ndarray, shape (N, r)
+        Mass-normalised rigid-body modes (r = 0 for a fixed structure).
+
+    Returns
+    -------
+    callable
+        Factorised once; sparse when ``K`` is.
+    """
+    N, r = K.shape[0], R.shape[1]
+    sparse = sp.issparse(K)
+    if r == 0:
+        if sparse:
+            return spla.splu(K.tocsc()).solve
+        try:
+            fac = sla.cho_factor(np.asarray(K))
+            return lambda rhs: sla.cho_solve(fac, rhs)
+        except np.linalg.LinAlgError:
+            fac = sla.lu_factor(np.asarray(K))
+            return lambda rhs: sla.lu_solve(fac, rhs)
+    # inertia relief: [[K, M R], [R^T M, 0]] [x; l] = [b; 0] gives
+    # K x = (I - M R R^T) b and R^T M x = 0, i.e. x = sum_flexible phi phi^T b / w^2
+    MR = np.asarray(M @ R)
+    if sparse:
+        A = sp.bmat([[K, sp.csr_matrix(MR)], [sp.csr_matrix(MR.T), None]]).tocsc()
+        full = spla.splu(A).solve
+    else:
+        A = np.block([[np.asarray(K), MR], [MR.T, np.zeros((r, r))]])
+        fac = sla.lu_factor(A)
+        full = lambda rhs: sla.lu_solve(fac, rhs)
+
+    def solve(rhs):
+        rhs = np.vstack([rhs, np.zeros((r, rhs.shape[1]))])
+        return full(rhs)[:N]
+    return solve
+
+
+def static_correction(fe, B: np.ndarray, phi) -> np.ndarray:
+    """Static correction modes (2.21) of input shapes ``B`` for the retained modes ``phi``.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The model (its ``static_response`` gives ``K^-1 B``).
+    B : ndarray, shape (N, k)
+        Input shapes.
+    phi : array_like, shape (N, m)
+        Retained mass-normalised modes; rigid-body modes among them are skipped.
+
+    Returns
+    -------
+    ndarray, shape (N, k)
+    """
+    P = as_array(phi, "phi", ndim=(1, 2))
+    if P.ndim == 1:
+        P = P[:, None]
+    if P.shape[0] != fe.N:
+        raise ValueError(f"phi must have shape (N={fe.N}, m), got {P.shape}")
+    mu = np.einsum("ij,ij->j", P, np.asarray(fe.M @ P))
+    if np.any(np.abs(mu - 1) > 1e-6):
+        raise ValueError("phi must be mass-normalised (phi^T M phi = I), got diagonal "
+                         f"entries in [{mu.min():.6g}, {mu.max():.6g}]")
+    X = fe.static_response(B)
+    lam = np.einsum("ij,ij->j", P, np.asarray(fe.K @ P))
+    flex = lam > RIGID_RTOL * diagonal_scale(fe.K, fe.M)[1]
+    Pf = P[:, flex]
+    return X - Pf @ ((Pf.T @ B) / lam[flex][:, None])
+
+
+def principal_static_modes(phi_s, M, rtol: float = 1e-8) -> np.ndarray:
+    """Principal static modes by the mass-orthogonal SVD, eq. (4.24).
+
+    The eigenvalues ``Sigma_s`` and eigenvectors ``Psi_s`` of ``phi_s^T M phi_s`` give
+    ``phi_sp = phi_s Psi_s Sigma_s^{-1/2}``; only directions with
+    ``Sigma_s > rtol * max(Sigma_s)`` are kept (largest first), which avoids the
+    conditioning problems of a Schmidt orthogonalisation.
+
+    Parameters
+    ----------
+    phi_s : array_like, shape (N, k)
+        Static (correction) modes, e.g. from :meth:`FEModel.static_correction`.
+    M : array_like or sparse matrix, shape (N, N)
+        Mass matrix.
+    rtol : float
+        Relative threshold on the mass-orthogonal singular values.
+
+    Returns
+    -------
+    ndarray, shape (N, k')
+        Mass-orthonormal basis (``phi_sp^T M phi_sp = I``) of the significant part of
+        ``span(phi_s)``, ``k' <= k``.
+    """
+    P = np.asarray(phi_s, float)
+    if P.ndim == 1:
+        P = P[:, None]
+    S = P.T @ (M @ P)
+    S = 0.5 * (S + S.T)
+    sig, psi = np.linalg.eigh(S)
+    order = np.argsort(sig)[::-1]
+    sig, psi = sig[order], psi[:, order]
+    if sig.size == 0 or sig[0] <= 0:
+        return np.zeros((P.shape[0], 0))
+    keep = sig > rtol * sig[0]
+    return P @ (psi[:, keep] / np.sqrt(sig[keep]))
+
+
+def principal_static_basis(phi_s, M, K):
+    """Principal static modes (4.24) diagonalised on their projected stiffness.
+
+    Parameters
+    ----------
+    phi_s : ndarray, shape (N, k)
+        Static correction modes.
+    M, K : ndarray or sparse matrix, shape (N, N)
+        Mass and stiffness.
+
+    Returns
+    -------
+    V : ndarray, shape (N, k')
+        Mass-orthonormal modes with ``V^T K V = diag(wc2)``.
+    wc2 : ndarray, shape (k',)
+        Their eigenvalues (rad/s)^2, increasing.
+    """
+    V = principal_static_modes(phi_s, M)
+    if not V.shape[1]:
+        return V, np.zeros(0)
+    Kc = V.T @ np.asarray(K @ V)
+    wc2, Rc = np.linalg.eigh(0.5 * (Kc + Kc.T))
+    return V @ Rc, wc2
