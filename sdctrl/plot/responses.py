@@ -266,7 +266,7 @@ def bode(systems, labels=None, channels=None, path: str | os.PathLike | None = N
     --------
     >>> import sdctrl as sd
     >>> frf = sd.testbed_frf(n=200)
-    >>> fig = sd.plot.bode(frf, channels=[("N30.z", "N30.z")])
+    >>> fig = sd.plot.bode(frf, channels=[("N32.z", "N32.z")])
     >>> len(fig.axes)
     2
     """
