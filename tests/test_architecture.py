@@ -153,7 +153,7 @@ def test_the_checker_sees_violations(tmp_path, monkeypatch):
     assert (2, "sdctrl.closedloop", "_psd") in found
     assert (3, "sdctrl.robust", "x") in found
     assert (4, "sdctrl", None) in found
-    assert _unit("sdctrl.identification.optimize") == "sdctrl.identification"
+    assert _unit("sdctrl.identification.fit") == "sdctrl.identification"
     assert ORDER.index("sdctrl.uncertainty") < ORDER.index("sdctrl.modal")
 
 
