@@ -13,8 +13,8 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import secrets
 import stat
-import tempfile
 
 __all__ = ["MissingFileError", "atomic_write", "check_path", "open_regular"]
 
@@ -109,10 +109,25 @@ def open_regular(path: str, name: str = "path"):
         raise
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+def _temporary(path: str, name: str) -> str:
+    """Create an empty file next to ``path`` with the permissions a new file gets (umask)."""
+    folder = os.path.dirname(os.path.abspath(path))
+    for _ in range(100):
+        tmp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(6)}.tmp")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
+                         0o666)
+        except FileExistsError:
+            continue
+        except FileNotFoundError:
+            raise MissingFileError(errno.ENOENT, f"{name} {path!r}: folder {folder!r} does not "
+                                   "exist", path) from None
+        except OSError as exc:
+            raise type(exc)(exc.errno, f"{name} {path!r} cannot be written: {exc.strerror}",
+                            path) from None
+        os.close(fd)
+        return tmp
+    raise FileExistsError(errno.EEXIST, f"{name} {path!r}: no free temporary name", path)
 
 
 @contextlib.contextmanager
@@ -120,26 +135,20 @@ def atomic_write(path: str, name: str = "path"):
     """Yield a temporary path next to ``path``; on success it replaces ``path``.
 
     On any error the temporary file is removed and ``path`` is left as it was.  A target that
-    exists but is not a regular file (a directory, a FIFO, a device) is refused first.
+    exists but is not a regular file (a directory, a FIFO, a device) is refused first; an
+    existing file keeps its permissions.
     """
+    mode = None
     if os.path.exists(path):
-        mode = os.stat(path).st_mode
-        if not stat.S_ISREG(mode):
-            raise _refuse(path, mode, name)
-    folder = os.path.dirname(os.path.abspath(path))
-    try:
-        fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp",
-                                   dir=folder)
-    except FileNotFoundError:
-        raise MissingFileError(errno.ENOENT, f"{name} {path!r}: folder {folder!r} does not "
-                               "exist", path) from None
-    except OSError as exc:
-        raise type(exc)(exc.errno, f"{name} {path!r} cannot be written: {exc.strerror}",
-                        path) from None
-    os.close(fd)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise _refuse(path, st.st_mode, name)
+        mode = stat.S_IMODE(st.st_mode)
+    tmp = _temporary(path, name)
     try:
         yield tmp
-        os.chmod(tmp, 0o666 & ~_umask())
+        if mode is not None:
+            os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -1,7 +1,6 @@
 """sd.save / sd.load: exact round trips of every model and result type, hostile archives refused
 before any large allocation, paths."""
 
-import dataclasses
 import io
 import json
 import os
@@ -13,47 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from exact import assert_same
 
 import sdctrl as sd
 from sdctrl import storage
 from sdctrl.hybridmodel import HybridModel
 from sdctrl.robust import RobustResult
-
-_FRF_ATTRS = ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence", "units")
-_FE_ATTRS = ("M", "K", "C", "dofs", "nodes", "elements")
-
-
-def assert_same(a, b, where="obj"):
-    """Exact equality: same types, arrays bit for bit with dtype and shape, same labels/info."""
-    assert type(a) is type(b), f"{where}: {type(a).__name__} != {type(b).__name__}"
-    if isinstance(a, np.ndarray | np.generic):
-        assert (a.dtype, a.shape) == (b.dtype, b.shape), where
-        assert np.asarray(a).tobytes() == np.asarray(b).tobytes(), where
-    elif sp.issparse(a):
-        assert a.format == b.format and a.shape == b.shape, where
-        for k in ("data", "indices", "indptr"):
-            assert_same(getattr(a, k), getattr(b, k), f"{where}.{k}")
-    elif isinstance(a, float):
-        assert a.hex() == b.hex(), f"{where}: {a!r} != {b!r}"
-    elif isinstance(a, complex):
-        assert_same(a.real, b.real, where)
-        assert_same(a.imag, b.imag, where)
-    elif isinstance(a, dict | type(sd.testbed().nodes)):
-        assert list(a) == list(b), f"{where}: keys {list(a)} != {list(b)}"
-        for k in a:
-            assert_same(a[k], b[k], f"{where}[{k!r}]")
-    elif isinstance(a, list | tuple):
-        assert len(a) == len(b), where
-        for i, (x, y) in enumerate(zip(a, b)):
-            assert_same(x, y, f"{where}[{i}]")
-    elif dataclasses.is_dataclass(a):
-        for f in dataclasses.fields(a):
-            assert_same(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
-    elif isinstance(a, sd.FRF | sd.FEModel):
-        for k in _FRF_ATTRS if isinstance(a, sd.FRF) else _FE_ATTRS:
-            assert_same(getattr(a, k), getattr(b, k), f"{where}.{k}")
-    else:
-        assert a == b, f"{where}: {a!r} != {b!r}"
 
 
 def round_trip(obj, tmp_path, name="m"):
@@ -397,3 +361,15 @@ def test_hostile_uncertain_parameters_refused(tmp_path):
     params[0]["tuple"][1]["tuple"][1] = 5                         # index out of range
     with pytest.raises(ValueError, match="malformed uncertain parameter"):
         sd.load(_zip(tmp_path / "bad.npz", _with_meta(members, meta)))
+
+
+def test_cli_info_prints_a_saved_model(tmp_path, capsys):
+    from sdctrl.cli import main
+
+    nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.04]), [[1.0]], [[1.0]])
+    path = sd.save(nm, tmp_path / "m")
+    assert main(["info", path]) == 0
+    assert "NormalModeModel" in capsys.readouterr().out
+    (tmp_path / "bad.npz").write_bytes(b"garbage")
+    assert main(["info", str(tmp_path / "bad.npz")]) == 2
+    assert "bad.npz" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""FRF file I/O: Universal File Format dataset 58 (through pyuff) and numpy ``.npz``.
+"""FRF files in the Universal File Format, dataset 58 (through pyuff).
 
 UFF 58 stores one function (one sensor/actuator pair) per dataset.  sdctrl writes
 double-precision complex ordinates with an explicit (uneven) abscissa, in binary by default, so a
@@ -44,10 +44,9 @@ import warnings
 import numpy as np
 
 from sdctrl._files import atomic_write, check_path, open_regular
-from sdctrl._npz import read_arrays, write_arrays
 from sdctrl.frf import FRF
 
-__all__ = ["load_npz", "read_uff", "save_npz", "write_uff"]
+__all__ = ["read_uff", "write_uff"]
 
 _DIRS = {"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
 _DIR_NAMES = {v: k for k, v in _DIRS.items()}
@@ -110,7 +109,7 @@ def _units(frf: FRF) -> str:
         return "NONE"
     if len(u) > 20 or u != u.strip() or not all(" " <= ch <= "~" for ch in u):
         warnings.warn(f"units {u!r} not stored: a UFF units label holds at most 20 printable "
-                      "ASCII characters", stacklevel=3)
+                      "ASCII characters", stacklevel=4)
         return "NONE"
     return u
 
@@ -119,7 +118,7 @@ def _id2(sensor: str, actuator: str) -> str:
     id2 = f"{_ID_PREFIX}{_escape(sensor, 'sensor')}|{_escape(actuator, 'actuator')}"
     if len(id2) > _LINE:
         warnings.warn(f"labels of ({sensor!r}, {actuator!r}) are too long for a UFF ID line "
-                      f"({_LINE} characters); only node/direction are stored", stacklevel=3)
+                      f"({_LINE} characters); only node/direction are stored", stacklevel=4)
         return "NONE"
     return id2
 
@@ -138,7 +137,7 @@ def _axis(frf: FRF, binary: bool) -> tuple[dict, str]:
                 f"{_ID_PREFIX}axis={float(f[0]).hex()},{float(df[0]).hex()}")
     if not binary:
         warnings.warn("ASCII UFF stores an uneven frequency axis in single precision; "
-                      "use binary=True for an exact round trip", stacklevel=3)
+                      "use binary=True for an exact round trip", stacklevel=4)
     return {"abscissa_spacing": 0, "x": f}, "NONE"
 
 
@@ -382,7 +381,7 @@ def _assemble_foreign(frfs, cohs, path):
             seen.add((s, a))
     if cohs and len(seen) != H.shape[1] * H.shape[2]:
         warnings.warn(f"{path}: coherence given for {len(seen)} of {H.shape[1] * H.shape[2]} "
-                      "FRFs; ignored", stacklevel=3)
+                      "FRFs; ignored", stacklevel=4)
         C = None
     col = [(i, actuators.index(s)) for i, s in enumerate(sensors) if s in actuators]
     return sensors, actuators, H, C, col
@@ -458,101 +457,7 @@ def _quantity(frfs, path) -> tuple[str, str | None]:
                          f"{sorted(quantities)}")
     if not quantities:
         warnings.warn(f"{path}: ordinate data type not given; FRFs read as displacement/force",
-                      stacklevel=3)
+                      stacklevel=4)
     units = {r["units"] for r in frfs if r["units"] and r["units"].upper() != "NONE"}
     return (quantities.pop() if quantities else "displacement",
             units.pop() if len(units) == 1 else None)
-
-
-# ------------------------------------------------------------------------------------------
-# npz
-# ------------------------------------------------------------------------------------------
-def _npz_path(path: str) -> str:
-    return path if path.endswith(".npz") else path + ".npz"
-
-
-def save_npz(frf: FRF, path) -> str:
-    """Save an FRF, labels, collocated pairs and coherence to a numpy ``.npz`` file.
-
-    Plain arrays only (readable with ``numpy.load``); written atomically.
-
-    Parameters
-    ----------
-    frf : FRF
-        The data to save.
-    path : str or os.PathLike
-        Output file; ``.npz`` is appended when missing (as ``numpy.savez`` does).
-
-    Returns
-    -------
-    str
-        The path written.
-    """
-    if not isinstance(frf, FRF):
-        raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
-    path = _npz_path(check_path(path))
-    kw = {"freq": frf.freq, "H": frf.H, "quantity": np.array(frf.quantity),
-          "sensors": np.array(frf.sensors, dtype=str),
-          "actuators": np.array(frf.actuators, dtype=str),
-          "collocated": np.array(frf.collocated, dtype=np.int64).reshape(-1, 2),
-          "units": np.array(frf.units or "")}
-    if frf.coherence is not None:
-        kw["coherence"] = frf.coherence
-    write_arrays(path, kw)
-    return path
-
-
-def _text(z: dict, key: str, path: str, ndim: int):
-    v = z[key]
-    if v.dtype.kind != "U" or v.ndim != ndim:
-        raise ValueError(f"file {path!r}: member {key!r} must be a {ndim}-D string array, got "
-                         f"{v.dtype} of shape {v.shape}")
-    return str(v[()]) if ndim == 0 else [str(s) for s in v]
-
-
-def load_npz(path) -> FRF:
-    """Load an FRF saved by :func:`save_npz`.
-
-    The archive is checked before anything large is allocated and never unpickled: a damaged
-    or hostile file raises ``ValueError`` naming it and the fault.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The ``.npz`` file; ``path + ".npz"`` is tried when ``path`` does not exist.
-
-    Returns
-    -------
-    FRF
-
-    Raises
-    ------
-    ValueError
-        Not an FRF archive, or a damaged one.
-    OSError
-        The path cannot be opened (missing, a directory, no permission).
-    """
-    path = check_path(path)
-    if not os.path.exists(path) and not path.endswith(".npz") and os.path.exists(path + ".npz"):
-        path += ".npz"
-    z = read_arrays(path)
-    missing = {"freq", "H", "quantity", "sensors", "actuators"} - set(z)
-    if missing:
-        raise ValueError(f"file {path!r} is not an sdctrl FRF archive (missing members "
-                         f"{sorted(missing)})")
-    for key, kinds in (("freq", "f"), ("H", "c"), ("coherence", "f"), ("collocated", "iu")):
-        if key in z and z[key].dtype.kind not in kinds:
-            raise ValueError(f"file {path!r}: member {key!r} has dtype {z[key].dtype}")
-    col = z.get("collocated", np.zeros((0, 2), np.int64))
-    if col.ndim != 2 or col.shape[1] != 2:
-        raise ValueError(f"file {path!r}: member 'collocated' must have shape (k, 2), got "
-                         f"{col.shape}")
-    units = _text(z, "units", path, 0) if "units" in z else ""
-    try:
-        return FRF(z["freq"], z["H"], quantity=_text(z, "quantity", path, 0),
-                   sensors=_text(z, "sensors", path, 1),
-                   actuators=_text(z, "actuators", path, 1),
-                   collocated=[(int(s), int(a)) for s, a in col],
-                   coherence=z.get("coherence"), units=units or None)
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"file {path!r}: {exc}") from exc
