@@ -16,7 +16,8 @@ import os
 import secrets
 import stat
 
-__all__ = ["MissingFileError", "atomic_write", "check_path", "open_regular"]
+__all__ = ["MissingFileError", "atomic_write", "check_path", "npz_to_read", "npz_to_write",
+           "open_regular"]
 
 
 class MissingFileError(FileNotFoundError, ValueError):
@@ -37,6 +38,21 @@ def check_path(path, name: str = "path") -> str:
         raise ValueError(f"{name} must be a non-empty file path without NUL characters, "
                          f"got {out!r}")
     return out
+
+
+def npz_to_write(path: str, name: str = "path") -> str:
+    """``path`` with ``.npz`` appended when missing (as ``numpy.savez`` does); it must name a
+    file, not end with a separator."""
+    if not os.path.basename(path):
+        raise ValueError(f"{name} must name a file, got {path!r}")
+    return path if path.endswith(".npz") else path + ".npz"
+
+
+def npz_to_read(path: str) -> str:
+    """``path``, or ``path + ".npz"`` when only that exists (what :func:`npz_to_write` wrote)."""
+    if os.path.lexists(path) or path.endswith(".npz") or not os.path.exists(path + ".npz"):
+        return path
+    return path + ".npz"
 
 
 def _kind(mode: int) -> str:

@@ -1,6 +1,7 @@
 """UFF dataset 58 and npz I/O: exact round trips, labels, units, clear errors."""
 
 import os
+import re
 import warnings
 
 import numpy as np
@@ -207,6 +208,12 @@ def test_uff_ascii_even_axis_exact(tmp_path):
     sd.write_uff(frf, tmp_path / "even.uff", binary=False)
     back = sd.read_uff(tmp_path / "even.uff")
     assert np.allclose(back.freq, f, rtol=1e-15, atol=0)         # min + k*inc from exact floats
+    raw = (tmp_path / "even.uff").read_bytes()
+    line = re.search(rb"sdctrl:axis=\S+", raw).group(0)
+    for bad in (b"sdctrl:axis=0x1p+99999,0x1p+0", b"sdctrl:axis=0x1p+1,0x1p-2"):
+        (tmp_path / "even.uff").write_bytes(raw.replace(line, bad.ljust(len(line))))
+        with pytest.raises(ValueError, match="axis of ID line 5 disagrees"):
+            sd.read_uff(tmp_path / "even.uff")
 
 
 def test_uff_units_that_do_not_fit_are_not_stored(tmp_path):

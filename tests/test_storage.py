@@ -151,8 +151,13 @@ def test_missing_directory_fifo_paths(tmp_path):
             reader(missing)
         with pytest.raises(IsADirectoryError, match=str(tmp_path.name)):
             reader(tmp_path)
+    fe = sd.FEModel(np.eye(1), np.eye(1))
     with pytest.raises(OSError, match="nowhere"):
-        sd.save(sd.FEModel(np.eye(1), np.eye(1)), tmp_path / "nowhere" / "m")
+        sd.save(fe, tmp_path / "nowhere" / "m")
+    with pytest.raises(ValueError, match="must name a file"):
+        sd.save(fe, str(tmp_path) + os.sep)
+    with pytest.raises(IsADirectoryError, match="is a directory"):
+        sd.save(fe, tmp_path / "d.npz") if os.mkdir(tmp_path / "d.npz") is None else None
 
 
 # ------------------------------------------------------------------------------------------

@@ -8,19 +8,13 @@ results of every kind are saved by :func:`sdctrl.save` instead.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
-from sdctrl._files import check_path
+from sdctrl._files import check_path, npz_to_read, npz_to_write
 from sdctrl._npz import read_arrays, write_arrays
 from sdctrl.frf import FRF
 
 __all__ = ["load_npz", "save_npz"]
-
-
-def _npz_path(path: str) -> str:
-    return path if path.endswith(".npz") else path + ".npz"
 
 
 def save_npz(frf: FRF, path) -> str:
@@ -42,7 +36,7 @@ def save_npz(frf: FRF, path) -> str:
     """
     if not isinstance(frf, FRF):
         raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
-    path = _npz_path(check_path(path))
+    path = npz_to_write(check_path(path))
     kw = {"freq": frf.freq, "H": frf.H, "quantity": np.array(frf.quantity),
           "sensors": np.array(frf.sensors, dtype=str),
           "actuators": np.array(frf.actuators, dtype=str),
@@ -84,9 +78,7 @@ def load_npz(path) -> FRF:
     OSError
         The path cannot be opened (missing, a directory, no permission).
     """
-    path = check_path(path)
-    if not os.path.exists(path) and not path.endswith(".npz") and os.path.exists(path + ".npz"):
-        path += ".npz"
+    path = npz_to_read(check_path(path))
     z = read_arrays(path)
     missing = {"freq", "H", "quantity", "sensors", "actuators"} - set(z)
     if missing and "__sdctrl__" in z:

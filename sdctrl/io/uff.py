@@ -267,7 +267,8 @@ def _read_sets(path: str) -> list[dict]:
         raise ValueError(f"file {path!r} holds no UFF dataset 58 (found types "
                          f"{sorted(set(types))})")
     try:
-        data = uff.read_sets(idx)
+        with np.errstate(all="ignore"):      # damaged axes give inf/nan, refused afterwards
+            data = uff.read_sets(idx)
     except Exception as exc:
         raise ValueError(f"file {path!r}: a dataset 58 cannot be read (pyuff: {exc})") from exc
     return [data] if isinstance(data, dict) else list(data)
@@ -296,9 +297,14 @@ def _checked(d: dict, k: int, path: str) -> dict:
         raise ValueError(f"{where}: NaN or inf in the data")
     m = _AXIS_RE.match(out["id5"])
     if m and out["even"]:
-        f0, df = float.fromhex(m.group(1)), float.fromhex(m.group(2))
-        exact = f0 + np.arange(npts) * df
-        if not np.allclose(exact, x, rtol=1e-4, atol=0):
+        try:
+            f0, df = float.fromhex(m.group(1)), float.fromhex(m.group(2))
+            with np.errstate(all="ignore"):
+                exact = f0 + np.arange(npts) * df
+                ok = np.all(np.isfinite(exact)) and np.allclose(exact, x, rtol=1e-4, atol=0)
+        except OverflowError:
+            ok = False
+        if not ok:
             raise ValueError(f"{where}: exact axis of ID line 5 disagrees with the header")
         out["x"] = exact
     return out

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import json
-import os
 import warnings
 
 import numpy as np
 
-from sdctrl._files import check_path
+from sdctrl._files import check_path, npz_to_read, npz_to_write
 from sdctrl._npz import read_arrays, write_arrays
 from sdctrl.storage.registry import CODECS, codec_of
 from sdctrl.storage.values import META, Decoder, Encoder, short
@@ -22,10 +21,6 @@ _FORMAT = "sdctrl"
 
 class StorageWarning(UserWarning):
     """Part of an object (an ``info`` entry) could not be stored and was dropped."""
-
-
-def _npz_path(path: str) -> str:
-    return path if path.endswith(".npz") else path + ".npz"
 
 
 def save(model, path) -> str:
@@ -55,7 +50,7 @@ def save(model, path) -> str:
     TypeError
         ``model`` is not of a registered type, or one of its fields cannot be stored.
     """
-    path = _npz_path(check_path(path))
+    path = npz_to_write(check_path(path))
     codec = codec_of(model)
     if codec is None:
         raise TypeError(f"model must be one of the storable types {sorted(CODECS)}, got "
@@ -79,12 +74,6 @@ def _version() -> str:
 
 
 # ------------------------------------------------------------------------------------------
-def _resolve_load_path(path: str) -> str:
-    if os.path.exists(path) or path.endswith(".npz") or not os.path.exists(path + ".npz"):
-        return path
-    return path + ".npz"
-
-
 def load(path):
     """Load an object saved by :func:`save` (or an FRF saved by :func:`sdctrl.save_npz`).
 
@@ -109,7 +98,7 @@ def load(path):
     OSError
         The path cannot be opened (missing, a directory, no permission), named in the message.
     """
-    path = _resolve_load_path(check_path(path))
+    path = npz_to_read(check_path(path))
     arrays = read_arrays(path)
     if META not in arrays:
         if {"freq", "H"} <= set(arrays):       # an FRF written by save_npz
