@@ -11,7 +11,7 @@ from typing import Any
 __all__ = ["CODECS", "Codec", "codec_of", "register", "register_attrs", "registered"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Codec:
     """How one type is stored.
 
@@ -42,7 +42,17 @@ class Codec:
     lenient: tuple[str, ...] = ("info",)
 
     def resolve(self, import_: bool = True) -> type | None:
-        """The class, or None when its module is not imported and ``import_`` is False."""
+        """The class, or None when its module is not imported and ``import_`` is False.
+
+        Parameters
+        ----------
+        import_ : bool
+            Import the class's module when needed.
+
+        Returns
+        -------
+        type or None
+        """
         module, _, qualname = self.cls.partition(":")
         if not import_ and module not in sys.modules:
             return None
@@ -130,6 +140,17 @@ def registered() -> tuple[str, ...]:
 
 
 def codec_of(obj) -> Codec | None:
+    """The codec of ``obj``'s exact type (subclasses are not matched), or None.
+
+    Parameters
+    ----------
+    obj : object
+        Anything.
+
+    Returns
+    -------
+    Codec or None
+    """
     for codec in CODECS.values():
         try:
             cls = codec.resolve(import_=False)

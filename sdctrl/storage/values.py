@@ -18,10 +18,15 @@ META = "__sdctrl__"
 
 
 class Unstorable(Exception):
-    pass
+    """A value that has no encoding (internal signal of :class:`Encoder`)."""
 
 
 class Encoder:
+    """Turns values into JSON-able data, collecting their arrays (members ``a0``, ``a1``...).
+
+    ``dropped`` lists what lenient fields could not store.
+    """
+
     def __init__(self):
         self.arrays: dict[str, np.ndarray] = {}
         self.dropped: list[str] = []
@@ -35,6 +40,24 @@ class Encoder:
         return key
 
     def value(self, v, where: str, lenient: bool, depth: int = 0):
+        """Encoding of ``v``.
+
+        Parameters
+        ----------
+        v : object
+            The value.
+        where : str
+            Its place in the saved object, for messages (``"model.info['x']"``).
+        lenient : bool
+            Drop what cannot be stored (returning :data:`DROP`) instead of raising.
+        depth : int
+            Nesting depth so far.
+
+        Returns
+        -------
+        object
+            JSON-able data, or :data:`DROP`.
+        """
         if depth > _MAX_DEPTH:
             raise Unstorable("a structure nested too deeply")
         try:
@@ -86,6 +109,23 @@ class Encoder:
         raise Unstorable(f"a {type(v).__module__}.{type(v).__qualname__}")
 
     def fields(self, obj, codec: Codec, where: str, depth: int) -> dict:
+        """Encoded fields of a registered object.
+
+        Parameters
+        ----------
+        obj : object
+            The object.
+        codec : Codec
+            Its codec.
+        where : str
+            Its place in the saved object, for messages.
+        depth : int
+            Nesting depth so far.
+
+        Returns
+        -------
+        dict
+        """
         out = {}
         for k, v in codec.to_fields(obj).items():
             enc = self.value(v, f"{where}.{k}", k in codec.lenient, depth)
@@ -98,6 +138,14 @@ DROP = object()
 
 
 class Decoder:
+    """Rebuilds values from JSON data and the archive's arrays, refusing anything malformed.
+
+    Parameters
+    ----------
+    arrays : dict of str to ndarray
+        The archive's members (checked by :func:`sdctrl._npz.read_arrays`).
+    """
+
     def __init__(self, arrays: dict[str, np.ndarray]):
         self.arrays = arrays
 
@@ -107,6 +155,19 @@ class Decoder:
         return self.arrays[key]
 
     def value(self, v, depth: int = 0):
+        """The value encoded by ``v``; ValueError when malformed.
+
+        Parameters
+        ----------
+        v : object
+            JSON data.
+        depth : int
+            Nesting depth so far.
+
+        Returns
+        -------
+        object
+        """
         if depth > _MAX_DEPTH:
             raise ValueError("values nested too deeply")
         if v is None or isinstance(v, bool | int | str):
@@ -178,6 +239,17 @@ class Decoder:
 
 
 def short(v) -> str:
+    """``repr(v)`` cut to 60 characters, for messages.
+
+    Parameters
+    ----------
+    v : object
+        Anything.
+
+    Returns
+    -------
+    str
+    """
     text = repr(v)
     return text if len(text) <= 60 else text[:57] + "..."
 
