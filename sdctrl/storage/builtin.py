@@ -60,7 +60,7 @@ register_attrs("FRF", "sdctrl.frf:FRF",
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"})
 register_attrs("NormalModeModel", "sdctrl.modal:NormalModeModel", kinds=_MODAL)
-register_attrs("HybridModel", "sdctrl.hybridmodel:HybridModel", kinds=_MODAL)
+register_attrs("HybridModel", "sdctrl.predictions:HybridModel", kinds=_MODAL)
 register_attrs("FEModel", "sdctrl.fe:FEModel",
                ("M", "K", "C", "dofs", "nodes", "elements"), kinds={"M": "f", "K": "f", "C": "f"})
 register_attrs("UncertainModel", "sdctrl.uncertainty:UncertainModel",
