@@ -44,6 +44,9 @@ _EXPORTS = {
     "rms": "sdctrl.closedloop",
     "RobustResult": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",
+    # saving models and results
+    "save": "sdctrl.storage",
+    "load": "sdctrl.storage",
 }
 
 __all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single source
@@ -51,7 +54,8 @@ __all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single so
 
 # submodules reachable as attributes (``sd.plot.bode``) without importing them up front
 _SUBMODULES = ("config", "frf", "io", "modal", "identification", "fe", "testbeds", "hybridmodel",
-               "uncertainty", "robust", "closedloop", "testing", "plot", "report", "updating")
+               "uncertainty", "robust", "closedloop", "testing", "plot", "report", "updating",
+               "storage")
 
 
 def __getattr__(name: str):

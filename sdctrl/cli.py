@@ -157,10 +157,14 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
 
 
 def _info(path: str) -> int:
-    from sdctrl.io import load_npz, read_uff
+    from sdctrl.frf import FRF
+    from sdctrl.io import read_uff
+    from sdctrl.storage import load
 
-    frf = load_npz(path) if path.endswith(".npz") else read_uff(path)
+    frf = load(path) if path.endswith(".npz") else read_uff(path)
     print(frf)
+    if not isinstance(frf, FRF):          # a model or result saved by sdctrl.save
+        return 0
     print("sensors:  ", ", ".join(frf.sensors))
     print("actuators:", ", ".join(frf.actuators))
     if frf.collocated:
@@ -189,7 +193,7 @@ def main(argv=None) -> int:
     p.add_argument("--noise", type=float, default=0.01, help="relative FRF noise (default 0.01)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
-    p = sub.add_parser("info", help="summarise an FRF file (.uff/.unv or .npz)")
+    p = sub.add_parser("info", help="summarise an FRF file (.uff/.unv or .npz) or a saved model")
     p.add_argument("path")
     args = parser.parse_args(argv)
     try:

@@ -39,12 +39,12 @@ ROOT = pathlib.Path(sd.__file__).resolve().parent
 #: is allowed only at the end of the flow (``LAST``).
 ORDER = [
     "sdctrl.config", "sdctrl._validate", "sdctrl._util", "sdctrl._progress", "sdctrl._threads",
-    "sdctrl._statespace",
+    "sdctrl._statespace", "sdctrl._files", "sdctrl._npz",
     "sdctrl.frf", "sdctrl.io", "sdctrl.uncertainty", "sdctrl._modal_ops", "sdctrl.modal",
     "sdctrl.identification", "sdctrl.fe", "sdctrl.updating", "sdctrl.predictions",
     "sdctrl.hybridmodel", "sdctrl.testbeds",
     "sdctrl.closedloop", "sdctrl.robust", "sdctrl.placement", "sdctrl.testing",
-    "sdctrl.diagnosis", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
+    "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
 ]
 LAST = ("sdctrl.plot", "sdctrl.report", "sdctrl.cli")
 

@@ -1,5 +1,9 @@
 """UFF dataset 58 and npz I/O: exact round trips, labels, units, clear errors."""
 
+import os
+import re
+import warnings
+
 import numpy as np
 import pytest
 
@@ -118,3 +122,256 @@ def test_npz_round_trip(tmp_path):
         assert np.array_equal(getattr(back, name), getattr(frf, name))
     assert (back.sensors, back.actuators, back.collocated, back.quantity, back.units) == \
         (frf.sensors, frf.actuators, frf.collocated, frf.quantity, frf.units)
+
+
+# ------------------------------------------------------------------------------------------
+# labels, collocation, single lines
+# ------------------------------------------------------------------------------------------
+def _small(ns=2, na=2, nf=8, seed=1, **kw):
+    rng = np.random.default_rng(seed)
+    f = np.sort(rng.uniform(1.0, 100.0, nf))
+    H = rng.standard_normal((nf, ns, na)) + 1j * rng.standard_normal((nf, ns, na))
+    return sd.FRF(f, H, **kw)
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_uff_any_label_round_trips(tmp_path, binary):
+    sensors = ["a|b", "line\nbreak", " lead", "trail ", "caf\u00e9 \u2013 \u6e2c", "100%", ""]
+    actuators = ["N1.x", "tab\there", "|"]
+    frf = _small(len(sensors), len(actuators), nf=5, sensors=sensors, actuators=actuators)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                    # ASCII uneven axis
+        sd.write_uff(frf, tmp_path / "l.uff", binary=binary)
+    back = sd.read_uff(tmp_path / "l.uff")
+    assert back.sensors == tuple(sensors) and back.actuators == tuple(actuators)
+    assert back.collocated == ()
+
+
+def test_uff_too_long_labels_warn_and_fall_back(tmp_path):
+    frf = _small(1, 1, sensors=["s" * 75], actuators=["N3.y"])
+    with pytest.warns(UserWarning, match="too long for a UFF ID line"):
+        sd.write_uff(frf, tmp_path / "long.uff")
+    back = sd.read_uff(tmp_path / "long.uff")
+    assert back.sensors == ("N1",) and back.actuators == ("N3.y",)
+    assert np.array_equal(back.H, frf.H)
+    with pytest.raises(ValueError, match="cannot be encoded"):
+        sd.write_uff(_small(1, 1, sensors=["\ud800"]), tmp_path / "bad.uff")
+
+
+@pytest.mark.parametrize("collocated", [[], [(1, 0)], [(0, 0), (1, 1)], [(1, 1), (0, 0)]])
+def test_uff_collocation_never_invented_or_dropped(tmp_path, collocated):
+    # sensor 0 and actuator 0 share a label; sensor 1 / actuator 1 do not
+    frf = _small(sensors=["N1.x", "tip"], actuators=["N1.x", "shaker"], collocated=collocated)
+    for binary in (True, False):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sd.write_uff(frf, tmp_path / "c.uff", binary=binary)
+        assert sd.read_uff(tmp_path / "c.uff").collocated == tuple(collocated)
+
+
+def test_uff_foreign_files_collocated_at_driving_points(tmp_path):
+    import pyuff
+
+    sets = []
+    for (rn, rd), (fn, fd) in [((1, 1), (1, 1)), ((2, 3), (1, 1)), ((1, 1), (2, 3)),
+                               ((2, 3), (2, 3))]:
+        sets.append(pyuff.prepare_58(
+            binary=1, func_type=4, rsp_node=rn, rsp_dir=rd, ref_node=fn, ref_dir=fd,
+            data=np.ones(4, complex) * (rn + 1j * fn), x=np.arange(1.0, 5.0),
+            abscissa_spacing=0, ord_data_type=6, ordinate_spec_data_type=12,
+            orddenom_spec_data_type=13, ver_num=0, load_case_id=0))
+    pyuff.UFF(str(tmp_path / "f.uff")).write_sets(sets, "add")
+    back = sd.read_uff(tmp_path / "f.uff")
+    assert back.sensors == ("N1.x", "N2.z") and back.actuators == ("N1.x", "N2.z")
+    assert back.collocated == ((0, 0), (1, 1))
+    assert np.array_equal(back.H[0], [[1 + 1j, 1 + 2j], [2 + 1j, 2 + 2j]])
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_uff_single_line_round_trip_exact(tmp_path, binary):
+    frf = sd.FRF([7.123456789012345], [[[1.5 - 2j, 3j]]], sensors=["s"], actuators=["s", "b"],
+                 coherence=[[[0.25, 1.0]]])
+    sd.write_uff(frf, tmp_path / "one.uff", binary=binary)
+    back = sd.read_uff(tmp_path / "one.uff")
+    assert np.array_equal(back.freq, frf.freq)                   # exact, also in ASCII
+    assert np.array_equal(back.coherence, frf.coherence)
+    assert back.collocated == ()
+    if binary:
+        assert np.array_equal(back.H, frf.H)
+    else:
+        assert np.allclose(back.H, frf.H, rtol=1e-10)
+
+
+def test_uff_ascii_even_axis_exact(tmp_path):
+    f = 0.1 + 0.3 * np.arange(40)                               # not 6-digit representable
+    frf = sd.FRF(f, np.ones((40, 1, 1)) * (1 + 1j))
+    sd.write_uff(frf, tmp_path / "even.uff", binary=False)
+    back = sd.read_uff(tmp_path / "even.uff")
+    assert np.allclose(back.freq, f, rtol=1e-15, atol=0)         # min + k*inc from exact floats
+    raw = (tmp_path / "even.uff").read_bytes()
+    line = re.search(rb"sdctrl:axis=\S+", raw).group(0)
+    for bad in (b"sdctrl:axis=0x1p+99999,0x1p+0", b"sdctrl:axis=0x1p+1,0x1p-2"):
+        (tmp_path / "even.uff").write_bytes(raw.replace(line, bad.ljust(len(line))))
+        with pytest.raises(ValueError, match="axis of ID line 5 disagrees"):
+            sd.read_uff(tmp_path / "even.uff")
+
+
+def test_uff_units_that_do_not_fit_are_not_stored(tmp_path):
+    frf = _small(1, 1, units="a very long units label, m/s^2/N")
+    with pytest.warns(UserWarning, match="units .* not stored"):
+        sd.write_uff(frf, tmp_path / "u.uff")
+    assert sd.read_uff(tmp_path / "u.uff").units is None
+
+
+# ------------------------------------------------------------------------------------------
+# truncated, inconsistent, damaged files
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("binary", [True, False])
+@pytest.mark.parametrize("fraction", [0.3, 0.5, 0.75, 0.99])
+def test_uff_truncated_files_refused_never_shrunk(tmp_path, binary, fraction):
+    frf = _small(coherence=np.full((8, 2, 2), 0.5))
+    path = tmp_path / "t.uff"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sd.write_uff(frf, path, binary=binary)
+    raw = path.read_bytes()
+    path.write_bytes(raw[:int(fraction * len(raw))])
+    with pytest.raises(ValueError, match="t.uff"):
+        sd.read_uff(path)
+
+
+def test_uff_truncated_at_a_record_boundary_refused(tmp_path):
+    frf = _small()
+    path = tmp_path / "b.uff"
+    sd.write_uff(frf, path)
+    raw = path.read_bytes()
+    ends = [i + 7 for i in range(len(raw)) if raw.startswith(b"    -1\n", i)][1::2]
+    for end in ends[:-1]:                                        # 1, 2, 3 complete records
+        path.write_bytes(raw[:end])
+        with pytest.raises(ValueError, match="truncated or incomplete"):
+            sd.read_uff(path)
+    path.write_bytes(raw[:ends[-1]] + b"\n\n  \n")               # trailing blanks are fine
+    assert np.array_equal(sd.read_uff(path).H, frf.H)
+
+
+def test_uff_foreign_truncated_inside_a_record_refused(tmp_path):
+    import pyuff
+
+    frf = _small()
+    path = tmp_path / "f.uff"
+    sd.write_uff(frf, path)
+    sets = pyuff.UFF(str(path)).read_sets()
+    for d in sets:
+        d["id2"], d["id4"] = "NONE", "NONE"
+    other = tmp_path / "foreign.uff"
+    pyuff.UFF(str(other)).write_sets(sets, "add")
+    assert sd.read_uff(other).H.shape == (8, 2, 2)
+    raw = other.read_bytes()
+    other.write_bytes(raw[:int(0.3 * len(raw))])
+    with pytest.raises(ValueError, match="not terminated"):
+        sd.read_uff(other)
+
+
+def test_uff_damaged_content_refused_with_the_file_named(tmp_path):
+    frf = _small()
+    path = tmp_path / "d.uff"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sd.write_uff(frf, path, binary=False)
+    raw = path.read_bytes()
+    first = sum(len(line) for line in raw.splitlines(True)[:13])   # first data line
+    nan = raw[:first + 13] + b"nan".rjust(20) + raw[first + 33:]    # a value, not the axis
+    cases = {
+        "garbage outside": raw + b"garbage\n",
+        "bad number": raw.replace(b"e+0", b"x+0", 1),
+        "nan": nan,
+        "wrong count": raw.replace(b"         6         8", b"         6         9", 1),
+        "bad size": raw.replace(b" 2x2 ", b" 3x2 ", 1),
+        "bad index": raw.replace(b"sdctrl:1,0 ", b"sdctrl:0,0 ", 1),
+        "bad label": raw.replace(b"sdctrl:s0|a0", b"sdctrl:s0|a0|x", 1),
+        "bad escape": raw.replace(b"sdctrl:s0|a0", b"sdctrl:s0%FF|a0", 1),
+        "no dataset 58": raw.replace(b"    58", b"    15"),
+        "empty": b"",
+    }
+    for what, data in cases.items():
+        assert data != raw or what == "empty", what
+        path.write_bytes(data)
+        with pytest.raises(ValueError, match="d.uff") as err:
+            sd.read_uff(path)
+        assert type(err.value) is ValueError, what
+        assert what != "nan" or "NaN" in str(err.value)
+
+
+def test_uff_write_failure_keeps_the_old_file(tmp_path, monkeypatch):
+    import pyuff
+
+    path = tmp_path / "keep.uff"
+    sd.write_uff(_small(), path)
+    before = path.read_bytes()
+
+    def fail(self, sets, mode="add", force_double=True):
+        self._write_set(sets[0], "add")
+        raise Exception("disk on fire")  # noqa: TRY002  (what pyuff raises)
+
+    monkeypatch.setattr(pyuff.UFF, "write_sets", fail)
+    with pytest.raises(ValueError, match="keep.uff.*disk on fire"):
+        sd.write_uff(_small(seed=5), path)
+    assert path.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["keep.uff"]          # no temporary file left
+
+
+def test_uff_append_after_other_datasets(tmp_path):
+    import pyuff
+
+    path = tmp_path / "geo.uff"
+    pyuff.UFF(str(path)).write_sets(pyuff.prepare_15(
+        node_nums=[1, 2], def_cs=[0, 0], disp_cs=[0, 0], color=[1, 1],
+        x=[0.0, 1.0], y=[0.0, 0.0], z=[0.0, 0.0]), "add")
+    frf = _small()
+    sd.write_uff(frf, path, overwrite=False)
+    assert np.array_equal(sd.read_uff(path).H, frf.H)
+    sd.write_uff(frf, path, overwrite=False)                     # a second FRF in the file
+    with pytest.raises(ValueError, match="geo.uff"):
+        sd.read_uff(path)
+
+
+# ------------------------------------------------------------------------------------------
+# paths that are not regular files: refused at once, never blocking
+# ------------------------------------------------------------------------------------------
+_READERS = [sd.read_uff, sd.load_npz, sd.load]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
+@pytest.mark.parametrize("reader", _READERS, ids=lambda r: r.__name__)
+def test_fifo_and_devices_refused_without_blocking(tmp_path, reader, deadline):
+    fifo = tmp_path / "pipe.npz"
+    os.mkfifo(fifo)
+    with deadline(5), pytest.raises(ValueError, match="pipe.npz.*FIFO"):
+        reader(fifo)
+    if os.path.exists("/dev/zero"):
+        with deadline(5), pytest.raises(ValueError, match="character device"):
+            reader("/dev/zero")
+    with deadline(5), pytest.raises(IsADirectoryError, match=tmp_path.name):
+        reader(tmp_path)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
+def test_writers_refuse_fifo_targets(tmp_path, deadline):
+    fifo = tmp_path / "pipe.uff"
+    os.mkfifo(fifo)
+    for write in (lambda: sd.write_uff(_small(), fifo, overwrite=False),
+                  lambda: sd.write_uff(_small(), fifo),
+                  lambda: sd.save_npz(_small(), str(fifo) + ".npz") if os.mkfifo(
+                      str(fifo) + ".npz") is None else None):
+        with deadline(5), pytest.raises(ValueError, match="FIFO"):
+            write()
+
+
+def test_unreadable_path_is_an_oserror_naming_it(tmp_path):
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        pytest.skip("root reads everything")
+    path = tmp_path / "secret.uff"
+    sd.write_uff(_small(), path)
+    path.chmod(0)
+    with pytest.raises(PermissionError, match="secret.uff"):
+        sd.read_uff(path)

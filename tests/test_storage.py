@@ -1,0 +1,379 @@
+"""sd.save / sd.load: exact round trips of every model and result type, hostile archives refused
+before any large allocation, paths."""
+
+import io
+import json
+import os
+import tracemalloc
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from exact import assert_same
+
+import sdctrl as sd
+from sdctrl import storage
+from sdctrl.predictions import HybridModel
+from sdctrl.robust import RobustResult
+
+
+def round_trip(obj, tmp_path, name="m"):
+    path = sd.save(obj, tmp_path / name)
+    assert path == str(tmp_path / f"{name}.npz") and os.path.isfile(path)
+    back = sd.load(tmp_path / name)                       # '.npz' found without being given
+    assert_same(obj, back)
+    return back
+
+
+# ------------------------------------------------------------------------------------------
+# models of the testbed (identified, normal modes, hybrid, FE, uncertain)
+# ------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def testbed_models():
+    frf = sd.testbed_frf()
+    fe = sd.testbed()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cm = sd.identify(frf, progress=False)
+        nm = sd.normal_modes(cm, frf.collocated)
+        hy = sd.hybrid(fe, nm, list(frf.sensors))
+    return {"frf": frf, "fe": fe, "cm": cm, "nm": nm, "hybrid": hy}
+
+
+@pytest.mark.parametrize("key", ["frf", "fe", "cm", "nm", "hybrid"])
+def test_testbed_models_round_trip_exactly(testbed_models, tmp_path, key):
+    obj = testbed_models[key]
+    back = round_trip(obj, tmp_path)
+    if key == "hybrid":
+        assert isinstance(back, HybridModel)
+        assert back.info["pairing"]["mac"].min() > 0.9            # diagnostics kept, usable
+    if key == "fe":
+        assert back.sparse and back.M.nnz == obj.M.nnz and back.C is not None
+        assert np.array_equal(obj.modes(6)[0], back.modes(6)[0])    # same matrices, same modes
+    if key in ("cm", "nm", "hybrid"):
+        w = np.linspace(10, 50, 7)
+        assert np.array_equal(obj.frf(w).H, back.frf(w).H)
+        assert back.info == back.info and set(back.info) == set(obj.info)
+    for name in ("H", "residues", "Omega", "M"):
+        arr = getattr(back, name, None)
+        if isinstance(arr, np.ndarray):
+            assert not arr.flags.writeable                        # loaded models are immutable
+
+
+def test_uncertain_model_of_testbed_round_trip(testbed_models, tmp_path):
+    nm = testbed_models["nm"].replace(F=None)
+    um = nm.uncertain(dGamma=0.1 * np.abs(nm.Gamma) + 1e-3 * np.eye(nm.n),
+                      db=0.05 * np.abs(nm.phib), dc=0.02 * np.abs(nm.cphi))
+    back = round_trip(um, tmp_path)
+    assert back.blocks == um.blocks and len(back.params) > 10
+    d = np.linspace(-1, 1, len(um.params))
+    assert np.array_equal(um.perturbed(d).A, back.perturbed(d).A)
+    hy = testbed_models["hybrid"]
+    uh = hy.uncertain(dOmega=1e-2 * np.abs(hy.Omega))
+    back = round_trip(uh, tmp_path, "hybrid")
+    assert isinstance(back.model, HybridModel)
+
+
+def test_dense_fe_frf_and_small_models_round_trip(tmp_path):
+    fe = sd.FEModel(np.diag([2.0, 1.0, 1.5]), [[2, -1, 0], [-1, 2, -1], [0, -1, 1.0]],
+                    C=0.01 * np.eye(3), dofs=["A.x", "B.x", "C.x"],
+                    nodes={"A": (0, 0, 0), "B": (1, 0, 0.5), "C": (2, 0, 0)},
+                    elements=[("A", "B"), ("B", "C")])
+    round_trip(fe, tmp_path, "fe")
+    round_trip(sd.FEModel(np.eye(2), np.eye(2)), tmp_path, "bare")      # no C, nodes, elements
+    frf = sd.FRF([1.0], [[[1 + 2j]]], quantity="velocity", sensors=["s|1\n"],
+                 actuators=[" a\u00e9 "], collocated=[(0, 0)], units="m/s/N")
+    round_trip(frf, tmp_path, "frf")
+    nm = sd.NormalModeModel(np.diag([4.0, 9.0]), np.diag([0.04, 0.06]), np.eye(2),
+                            [[1.0], [0.5]], E=[[1e-3], [0.0]], F=[[0.0], [-1e-300]],
+                            omega_c=123.0, sensors=["x", "y"], actuators=["u"],
+                            shapes=np.eye(2), dofs=["N1.x", "N2.x"],
+                            info={"a": [1, (2, 3.5), None], "nan": float("nan"),
+                                  "inf": -float("inf"), "c": 1 - 2j, "i64": np.int64(-7),
+                                  "f32": np.float32(0.1), "u": np.array(["ab", "c"]),
+                                  "nested": {"deep": {"x": np.arange(3)}}, "t": ()})
+    back = round_trip(nm, tmp_path, "nm")
+    assert back.info["i64"].dtype == np.int64 and isinstance(back.info["a"][1], tuple)
+    cm = sd.ComplexModeModel(poles=[-0.1 + 10j], residues=[[[0.5j]]], cost=float("nan"),
+                             band=(1.0, 2.0), collocated=[(0, 0)], in_band=[False])
+    round_trip(cm, tmp_path, "cm")
+
+
+def test_robust_result_round_trip(tmp_path):
+    r = RobustResult(margin=2.5, margin_lower=float("inf"), stable=True, frequency=12.0,
+                     worst_delta=np.array([0.5, -1.0]), mu_freq=np.linspace(1, 2, 4),
+                     mu=np.array([0.1, 0.4, 0.3, 0.2]), info={"n_freq": 4})
+    round_trip(r, tmp_path)
+
+
+def test_saved_files_are_deterministic(tmp_path):
+    nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.04]), [[1.0]], [[1.0]])
+    a, b = sd.save(nm, tmp_path / "a"), sd.save(nm, tmp_path / "b.npz")
+    assert b.endswith("b.npz") and not b.endswith(".npz.npz")
+    assert Path(a).read_bytes() == Path(b).read_bytes()
+
+
+def test_unstorable_info_dropped_with_warning_and_bad_types_refused(tmp_path):
+    nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.04]), [[1.0]], [[1.0]],
+                            info={"ok": 1, "fn": len, "items": [1, {2, 3}], "keys": {1: "a"}})
+    with pytest.warns(storage.StorageWarning, match=r"info\['fn'\].*info\['items'\]\[1\]"):
+        path = sd.save(nm, tmp_path / "m")
+    back = sd.load(path)
+    assert back.info == {"ok": 1, "items": [1, None]}          # dropped / replaced by None
+    with pytest.raises(TypeError, match="model must be one of the storable types"):
+        sd.save(object(), tmp_path / "x")
+    with pytest.raises(TypeError, match="path must be a file path"):
+        sd.save(nm, 3)
+    assert not os.path.exists(tmp_path / "x.npz")
+    assert "FEModel" in storage.registered() and "UncertainModel" in storage.registered()
+
+
+def test_load_reads_save_npz_files_and_finds_suffix(tmp_path):
+    frf = sd.FRF([1.0, 2.0], np.ones((2, 1, 1)) * 1j, sensors=["N1.x"], actuators=["N1.x"])
+    assert sd.save_npz(frf, tmp_path / "legacy") == str(tmp_path / "legacy.npz")
+    assert_same(frf, sd.load(tmp_path / "legacy"))
+    assert_same(frf, sd.load_npz(tmp_path / "legacy"))
+    sd.save(frf, tmp_path / "new")
+    with pytest.raises(ValueError, match="not an sdctrl FRF archive"):
+        sd.load_npz(tmp_path / "new.npz")
+
+
+def test_missing_directory_fifo_paths(tmp_path):
+    missing = tmp_path / "nothing"
+    for reader in (sd.load, sd.load_npz):
+        with pytest.raises(FileNotFoundError, match="nothing"):
+            reader(missing)
+        with pytest.raises(ValueError, match="does not exist"):   # also a ValueError
+            reader(missing)
+        with pytest.raises(IsADirectoryError, match=str(tmp_path.name)):
+            reader(tmp_path)
+    fe = sd.FEModel(np.eye(1), np.eye(1))
+    with pytest.raises(OSError, match="nowhere"):
+        sd.save(fe, tmp_path / "nowhere" / "m")
+    with pytest.raises(ValueError, match="must name a file"):
+        sd.save(fe, str(tmp_path) + os.sep)
+    with pytest.raises(IsADirectoryError, match="is a directory"):
+        sd.save(fe, tmp_path / "d.npz") if os.mkdir(tmp_path / "d.npz") is None else None
+
+
+# ------------------------------------------------------------------------------------------
+# hostile archives
+# ------------------------------------------------------------------------------------------
+def _npy(arr=None, header=None, body=b""):
+    buf = io.BytesIO()
+    if header is None:
+        np.lib.format.write_array(buf, arr, allow_pickle=True)
+        return buf.getvalue()
+    np.lib.format.write_array_header_1_0(buf, header)
+    return buf.getvalue() + body
+
+
+def _zip(path, members, compress=zipfile.ZIP_STORED):
+    with zipfile.ZipFile(path, "w", compress) as zf:
+        for name, data in members.items():
+            zf.writestr(name, data)
+    return str(path)
+
+
+def _model_members(tmp_path):
+    nm = sd.NormalModeModel(np.diag([4.0, 9.0]), np.diag([0.04, 0.06]), np.eye(2), np.ones((2, 1)))
+    with zipfile.ZipFile(sd.save(nm, tmp_path / "good")) as zf:
+        members = {n: zf.read(n) for n in zf.namelist()}
+    return members, json.loads(np.load(io.BytesIO(members["__sdctrl__.npy"])).tobytes())
+
+
+def _with_meta(members, meta):
+    raw = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    return {**members, "__sdctrl__.npy": _npy(raw)}
+
+
+def _refused(path, match):
+    for reader in (sd.load, sd.load_npz):
+        with pytest.raises(ValueError, match=match):
+            reader(path)
+
+
+def test_huge_header_refused_before_allocation(tmp_path):
+    hdr = {"descr": "<f8", "fortran_order": False, "shape": (10**12,)}
+    path = _zip(tmp_path / "huge.npz", {"freq.npy": _npy(header=hdr, body=b"\0" * 64)})
+    tracemalloc.start()
+    try:
+        _refused(path, r"huge\.npz.*claims shape")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20 * os.path.getsize(path) + (1 << 20)
+    hdr = {"descr": "<f8", "fortran_order": False, "shape": (0, 10**15)}   # empty but absurd
+    _refused(_zip(tmp_path / "wide.npz", {"freq.npy": _npy(header=hdr)}), "claims shape")
+
+
+def test_zip_bomb_refused_unread(tmp_path):
+    path = _zip(tmp_path / "bomb.npz", {"H.npy": _npy(np.zeros(4_000_000))},
+                compress=zipfile.ZIP_DEFLATED)
+    assert os.path.getsize(path) < 100_000
+    tracemalloc.start()
+    try:
+        _refused(path, "more than 16 times its size")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20 * os.path.getsize(path) + (1 << 20)
+
+
+class _Boom:
+    triggered = False
+
+    def __reduce__(self):
+        return (_Boom._trigger, ())
+
+    @staticmethod
+    def _trigger():
+        _Boom.triggered = True
+
+
+def test_pickles_never_loaded(tmp_path):
+    members, _ = _model_members(tmp_path)
+    obj = np.array([_Boom()], dtype=object)
+    path = _zip(tmp_path / "pickle.npz", {**members, "a0.npy": _npy(obj)})
+    with pytest.raises(ValueError, match="holds Python objects"):
+        sd.load(path)
+    path = _zip(tmp_path / "pickle2.npz", {"freq.npy": _npy(obj), "H.npy": _npy(obj)})
+    _refused(path, "holds Python objects")
+    assert not _Boom.triggered
+
+
+@pytest.mark.parametrize("fault, match", [
+    ("not zip", "not a valid .npz archive"),
+    ("empty", "not a valid .npz archive"),
+    ("missing member", "missing array member 'a1'"),
+    ("wrong dtype", "Omega has dtype complex128"),
+    ("string dtype", "Omega has dtype <U3"),
+    ("structured", "expected a plain"),
+    ("not npy", "is not a .npy array"),
+    ("duplicate", "duplicated member"),
+    ("bad header", "bad .npy header"),
+    ("short data", "holds 8 bytes"),
+    ("no meta", "not an sdctrl archive"),
+    ("meta not json", "not valid JSON"),
+    ("meta wrong dtype", "must be 1-D uint8"),
+    ("newer version", "format version 99"),
+    ("unknown type", "unknown type 'Evil'"),
+    ("unknown field", r"unknown field\(s\) \['evil'\]"),
+    ("unknown tag", "unknown value kind 'eval'"),
+    ("deep nesting", "nested too deeply|not valid JSON"),
+    ("bad values", "stored NormalModeModel is invalid"),
+])
+def test_hostile_model_archives_refused(tmp_path, fault, match):
+    members, meta = _model_members(tmp_path)
+    fields = meta["root"]["object"][1]
+    if fault == "not zip":
+        members = None
+        (tmp_path / "bad.npz").write_bytes(b"PK\x03\x04 this is not a zip" * 10)
+    elif fault == "empty":
+        members = None
+        (tmp_path / "bad.npz").write_bytes(b"")
+    elif fault == "missing member":
+        del members["a1.npy"]
+    elif fault == "wrong dtype":
+        members["a0.npy"] = _npy(np.eye(2) + 0j)
+    elif fault == "string dtype":
+        members["a0.npy"] = _npy(np.array([["1.0", "0"], ["0", "1.0"]]))
+    elif fault == "structured":
+        members["a0.npy"] = _npy(np.zeros(2, dtype=[("a", "<f8"), ("b", "<i4")]))
+    elif fault == "not npy":
+        members["evil.py"] = b"import os"
+    elif fault == "duplicate":
+        members = list(members.items()) + [("a0.npy", _npy(np.eye(2)))]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")          # zipfile warns about the duplicate name
+            with zipfile.ZipFile(tmp_path / "bad.npz", "w") as zf:
+                for name, data in members:
+                    zf.writestr(name, data)
+        members = None
+    elif fault == "bad header":
+        members["a0.npy"] = b"\x93NUMPY\x01\x00\x10\x00{'descr': __import__('os')}\n"
+    elif fault == "short data":
+        members["a0.npy"] = _npy(header={"descr": "<f8", "fortran_order": False,
+                                         "shape": (2, 2)}, body=b"\0" * 8)
+    elif fault == "no meta":
+        del members["__sdctrl__.npy"]
+    elif fault == "meta not json":
+        members["__sdctrl__.npy"] = _npy(np.frombuffer(b"{not json", np.uint8))
+    elif fault == "meta wrong dtype":
+        members["__sdctrl__.npy"] = _npy(np.array(["{}"]))
+    elif fault == "newer version":
+        members = _with_meta(members, {**meta, "version": 99})
+    elif fault == "unknown type":
+        members = _with_meta(members, {**meta, "root": {"object": ["Evil", fields]}})
+    elif fault == "unknown field":
+        bad = {**fields, "evil": 1}
+        members = _with_meta(members, {**meta, "root": {"object": ["NormalModeModel", bad]}})
+    elif fault == "unknown tag":
+        bad = {**fields, "info": {"eval": "__import__('os').system('false')"}}
+        members = _with_meta(members, {**meta, "root": {"object": ["NormalModeModel", bad]}})
+    elif fault == "deep nesting":
+        deep = 1
+        for _ in range(200):
+            deep = [deep]
+        bad = {**fields, "info": {"dict": {"x": deep}}}
+        members = _with_meta(members, {**meta, "root": {"object": ["NormalModeModel", bad]}})
+    elif fault == "bad values":
+        bad = {**fields, "omega_c": {"float": "-inf"}}
+        members = _with_meta(members, {**meta, "root": {"object": ["NormalModeModel", bad]}})
+    path = tmp_path / "bad.npz" if members is None else _zip(tmp_path / "bad.npz", members)
+    with pytest.raises(ValueError, match=match) as err:
+        sd.load(path)
+    assert "bad.npz" in str(err.value)                          # the file is named
+
+
+def _fe_archive(tmp_path, **changes):
+    fe = sd.FEModel(sp.diags([1.0, 2.0, 3.0]).tocsr(), sp.diags([1.0, 1.0, 1.0]).tocsr())
+    with zipfile.ZipFile(sd.save(fe, tmp_path / "fe")) as zf:
+        members = {n: zf.read(n) for n in zf.namelist()}
+    meta = json.loads(np.load(io.BytesIO(members["__sdctrl__.npy"])).tobytes())
+    M = meta["root"]["object"][1]["M"]["csr"]
+    for key, value in changes.items():
+        if key == "shape":
+            M["shape"] = value
+        else:
+            members[f"{M[key]}.npy"] = _npy(value)
+    return _zip(tmp_path / "bad.npz", _with_meta(members, meta))
+
+
+@pytest.mark.parametrize("changes, match", [
+    ({"indices": np.array([0, 1, 7], np.int32)}, "column index out of range"),
+    ({"indptr": np.array([0, 2, 1, 3], np.int32)}, "inconsistent sparse"),
+    ({"shape": [3, 10**15]}, "column index|symmetric|square"),
+    ({"shape": [-1, 3]}, "malformed sparse shape"),
+    ({"data": np.array([1.0, np.nan, 1.0])}, "finite"),
+])
+def test_hostile_sparse_matrices_refused(tmp_path, changes, match):
+    with pytest.raises(ValueError, match=match):
+        sd.load(_fe_archive(tmp_path, **changes))
+
+
+def test_hostile_uncertain_parameters_refused(tmp_path):
+    nm = sd.NormalModeModel(np.diag([4.0, 9.0]), np.diag([0.04, 0.06]), np.eye(2), np.ones((2, 1)))
+    um = nm.uncertain(dOmega=np.diag([0.1, 0.2]))
+    with zipfile.ZipFile(sd.save(um, tmp_path / "um")) as zf:
+        members = {n: zf.read(n) for n in zf.namelist()}
+    meta = json.loads(np.load(io.BytesIO(members["__sdctrl__.npy"])).tobytes())
+    params = meta["root"]["object"][1]["params"]
+    params[0]["tuple"][1]["tuple"][1] = 5                         # index out of range
+    with pytest.raises(ValueError, match="malformed uncertain parameter"):
+        sd.load(_zip(tmp_path / "bad.npz", _with_meta(members, meta)))
+
+
+def test_cli_info_prints_a_saved_model(tmp_path, capsys):
+    from sdctrl.cli import main
+
+    nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.04]), [[1.0]], [[1.0]])
+    path = sd.save(nm, tmp_path / "m")
+    assert main(["info", path]) == 0
+    assert "NormalModeModel" in capsys.readouterr().out
+    (tmp_path / "bad.npz").write_bytes(b"garbage")
+    assert main(["info", str(tmp_path / "bad.npz")]) == 2
+    assert "bad.npz" in capsys.readouterr().err
