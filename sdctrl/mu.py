@@ -439,8 +439,10 @@ def _bfgs(f, x, fx, g, stop: float, rtol: float, maxiter: int, window: int = 30,
     """
     from scipy.linalg import blas
     n = x.size
-    H = np.asfortranarray(np.eye(n))
     hist = [fx]
+    if fx <= stop:
+        return x, fx
+    H = np.asfortranarray(np.eye(n))
     for _ in range(maxiter):
         if fx <= stop:
             break

@@ -141,10 +141,13 @@ def interval(fs: FactoredSystem, st: BlockStructure, x, beta: float, w0: float,
     T1, T2 = Th[:m], Th[m:]
     W = Lh.conj().T @ Lh
     Pi = np.block([[W, -1j * np.eye(p)], [1j * np.eye(p), np.zeros((p, p))]])
-    K0 = fs.core(w0)[0]
-    N0 = np.vstack([K0 @ T1, T2])
-    Psi0 = N0.conj().T @ Pi @ N0
-    if np.linalg.eigvalsh(0.5 * (Psi0 + Psi0.conj().T))[-1] >= beta ** 2:
+
+    def psi_max(ws):                 # largest eigenvalue of Psi at each frequency, vectorised
+        Nw = np.concatenate([fs.core(ws) @ T1, np.broadcast_to(T2, (len(ws),) + T2.shape)], 1)
+        P = np.conj(np.swapaxes(Nw, 1, 2)) @ Pi @ Nw
+        return np.linalg.eigvalsh(0.5 * (P + np.conj(np.swapaxes(P, 1, 2))))[:, -1] - beta ** 2
+
+    if psi_max([w0])[0] >= 0:
         return (w0, w0 - 1.0)
     DcT = Dc @ T1
     Dn = np.vstack([DcT, T2])
@@ -160,10 +163,21 @@ def interval(fs: FactoredSystem, st: BlockStructure, x, beta: float, w0: float,
     H = np.block([[Ah, -Bn @ Ri @ Bn.conj().T],
                   [-Cc.T @ W @ Cc + S @ Ri @ S.conj().T, -Ah.conj().T]])
     lam = np.linalg.eigvals(H)
-    cross = lam.imag[np.abs(lam.real) <= tol * (np.abs(lam) + np.linalg.norm(A, 1))]
-    below, above = cross[(cross >= 0) & (cross <= w0)], cross[cross > w0]
-    return (float(below.max()) if below.size else 0.0,
-            float(above.min()) if above.size else np.inf)
+    scale = np.linalg.norm(A, 1)
+    for t in (tol, 1e3 * tol):
+        cross = lam.imag[(np.abs(lam.real) <= t * (np.abs(lam) + scale)) & (lam.imag >= 0)]
+        if cross.size:       # near-axis eigenvalues where Psi is clearly negative: no crossing
+            cross = cross[psi_max(cross) >= -1e-6 * beta ** 2]
+        below, above = cross[cross <= w0], cross[cross > w0]
+        lo = float(below.max()) if below.size else 0.0
+        hi = float(above.min()) if above.size else np.inf
+        # independent check on samples of the interval (a missed crossing shows here)
+        top = hi if np.isfinite(hi) else 1e4 * max(w0, scale, 1.0)
+        frac = np.array([0.001, 0.01, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99, 0.999])
+        ws = np.concatenate([w0 - (w0 - lo) * frac, w0 + (top - w0) * frac ** 2])
+        if np.all(psi_max(ws) < 0):
+            return (lo, hi)
+    return (w0, w0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,7 +227,7 @@ def _gaps(intervals, w_max: float):
     iv = sorted(intervals)
     gaps, reach = [], 0.0
     for lo, hi in iv:
-        if lo > reach:
+        if lo > reach * (1 + 1e-12):        # closed intervals touching up to rounding: no gap
             gaps.append((reach, lo))
         reach = max(reach, hi)
     if reach < np.inf:

@@ -327,8 +327,8 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     run = executor.map if executor is not None else map
     args = [(fs, chan_block, perf, int(output), int(input), w, d) for d in ds]
     gains = []
-    with progress_bar(total=len(ds), desc="worst-case gain", unit="sample",
-                      enabled=progress) as bar:
+    with single_thread(), progress_bar(total=len(ds), desc="worst-case gain", unit="sample",
+                                       enabled=progress) as bar:
         for H in run(_sample_gain, *zip(*args)):
             gains.append(H)
             bar.update()
