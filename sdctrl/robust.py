@@ -212,6 +212,11 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
     rtol = float(rtol)
     if not (np.isfinite(rtol) and 0 < rtol < 1):
         raise ValueError(f"rtol must be in (0, 1), got {rtol}")
+    if isinstance(n_directions, bool) or not isinstance(n_directions, int | np.integer) \
+            or n_directions < 0:
+        raise ValueError(f"n_directions must be an integer >= 0, got {n_directions!r}")
+    if freq is not None:
+        freq = check_freq(freq, "freq")
     fs, reps = _closed_loop(um, controller)
     nb = len(reps)
     stable = bool(np.all(np.linalg.eigvals(fs.A).real < 0))
@@ -222,7 +227,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
     if nb == 0:
         return RobustResult(np.inf, np.inf, True, np.nan, np.zeros(0), np.zeros(0), np.zeros(0),
                             info)
-    with single_thread(), progress_bar(desc="robust stability", unit="freq",
+    with single_thread(), progress_bar(desc="mu upper bound", unit="freq",
                                             enabled=progress) as bar:
         low = destabilise(fs, reps, n_random=n_directions, seed=seed)
         mu_lo = 1.0 / low.alpha
