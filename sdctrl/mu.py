@@ -21,10 +21,10 @@ on hundreds of channels costs little more than one on a few.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 import scipy.linalg as sla
+
+from sdctrl.mu_structure import BlockStructure, Factored
 
 __all__ = [
     "BlockStructure",
@@ -38,312 +38,9 @@ __all__ = [
     "osborne",
 ]
 
-KINDS = ("real", "complex", "full")
-
-
-@dataclass(frozen=True, eq=False)
-class Factored:
-    """``M = L @ K @ R`` (``L``: (N, p), ``K``: (p, m), ``R``: (m, N)); ``L = R = None`` means ``M = K``.
-
-    Parameters
-    ----------
-    K : ndarray
-        Core matrix (the whole ``M`` when ``L`` and ``R`` are None).
-    L, R : ndarray or None
-        Output and input factors.
-    """
-
-    K: np.ndarray
-    L: np.ndarray | None = None
-    R: np.ndarray | None = None
-
-    @property
-    def N(self) -> int:
-        """Number of channels."""
-        return self.K.shape[0] if self.L is None else self.L.shape[0]
-
-    @property
-    def low_rank(self) -> bool:
-        """Whether the factored path (small core) is used."""
-        return self.L is not None and self.K.shape[0] + self.K.shape[1] < self.N
-
-    def dense(self) -> np.ndarray:
-        """``M`` as an (N, N) array."""
-        return self.K if self.L is None else self.L @ self.K @ self.R
-
-
-@dataclass(frozen=True, eq=False)
-class BlockStructure:
-    """Block-diagonal uncertainty structure, blocks in channel order.
-
-    Parameters
-    ----------
-    sizes : tuple of int
-        Size ``r`` of each block.
-    kinds : tuple of str
-        ``"real"``, ``"complex"`` (repeated scalars ``delta I_r``) or ``"full"`` (``r x r``).
-    """
-
-    sizes: tuple
-    kinds: tuple
-    groups: list = field(init=False, repr=False)
-    nv: int = field(init=False, repr=False)
-    scalar: tuple | None = field(init=False, repr=False)
-
-    def __post_init__(self):
-        sizes = tuple(int(r) for r in self.sizes)
-        kinds = tuple(str(k) for k in self.kinds)
-        if len(sizes) != len(kinds) or any(r < 1 for r in sizes) or any(
-                k not in KINDS for k in kinds):
-            raise ValueError(f"blocks must be positive sizes with kinds in {KINDS}")
-        object.__setattr__(self, "sizes", sizes)
-        object.__setattr__(self, "kinds", kinds)
-        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(int)
-        groups, off = [], 0
-        for key in sorted(set(zip(sizes, kinds))):
-            r, kind = key
-            ids = np.array([i for i, s in enumerate(zip(sizes, kinds)) if s == key])
-            idx = starts[ids][:, None] + np.arange(r)[None, :]          # (K, r) channels
-            nf = 1 if kind == "full" else r * r
-            ng = r * r if kind == "real" else 0
-            il = np.tril_indices(r, -1)
-            groups.append({"r": r, "kind": kind, "blocks": ids, "idx": idx, "nf": nf, "ng": ng,
-                           "off": off, "il": il, "m": len(il[0]), "ar": np.arange(r)})
-            off += len(ids) * (nf + ng)
-        object.__setattr__(self, "groups", groups)
-        object.__setattr__(self, "nv", off)
-        scalar = None
-        if all(r == 1 for r in sizes):           # parameter index of each channel's scalings
-            s_idx, g_idx, g_chan = np.zeros(len(sizes), int), [], []
-            for g in groups:
-                step = g["nf"] + g["ng"]
-                s_idx[g["idx"][:, 0]] = g["off"] + step * np.arange(len(g["blocks"]))
-                if g["ng"]:
-                    g_chan += list(g["idx"][:, 0])
-                    g_idx += list(g["off"] + 1 + step * np.arange(len(g["blocks"])))
-            scalar = (s_idx, np.array(g_idx, int), np.array(g_chan, int))
-        object.__setattr__(self, "scalar", scalar)
-
-    @classmethod
-    def real_repeated(cls, reps, eps: float = 0.0) -> BlockStructure:
-        """Repeated real scalars, followed by their complex copies when ``eps > 0``.
-
-        Parameters
-        ----------
-        reps : sequence of int
-            Repetition of each real scalar.
-        eps : float
-            Regularisation ``delta + eps delta_c``: complex copies are appended when positive
-            (the matrix then is ``[[M, M], [eps M, eps M]]``).
-
-        Returns
-        -------
-        BlockStructure
-        """
-        reps = tuple(int(r) for r in reps)
-        kinds = ("real",) * len(reps) + (("complex",) * len(reps) if eps > 0 else ())
-        return cls(reps + (reps if eps > 0 else ()), kinds)
-
-    @property
-    def N(self) -> int:
-        """Number of channels."""
-        return int(sum(self.sizes))
-
-    @property
-    def block_of_channel(self) -> np.ndarray:
-        """Block index of every channel."""
-        return np.repeat(np.arange(len(self.sizes)), self.sizes)
-
-    # ---------------------------------------------------------------- scalings
-    def start(self, d=None) -> np.ndarray:
-        """Parameter vector of the scalings ``D = diag(d_i I)``, ``G = 0``.
-
-        Parameters
-        ----------
-        d : array_like, optional
-            Positive scaling of each block (default 1).
-
-        Returns
-        -------
-        ndarray (nv,)
-        """
-        x = np.zeros(self.nv)
-        if d is None:
-            return x
-        s = 0.5 * np.log(np.asarray(d, float))
-        for g in self.groups:
-            K, r = len(g["blocks"]), g["r"]
-            p = np.zeros((K, g["nf"] + g["ng"]))
-            p[:, :1 if g["kind"] == "full" else r] = s[g["blocks"]][:, None]
-            x[g["off"]:g["off"] + p.size] = p.ravel()
-        return x
-
-    def unpack(self, x):
-        """Scalings of each group of equal blocks from the parameter vector.
-
-        ``D = F F^H`` with ``F`` lower triangular (log of its diagonal and its strictly lower
-        part are parameters), ``G = F Gh F^H`` with ``Gh`` Hermitian (real blocks only).
-
-        Parameters
-        ----------
-        x : ndarray (nv,)
-            Parameter vector.
-
-        Returns
-        -------
-        list of tuple
-            ``(F, F^-1, Gh)`` per group, arrays (K, r, r) or (K,) for scalar blocks; ``Gh``
-            is None on complex and full blocks.
-        """
-        out = []
-        for g in self.groups:
-            K, r, nf, ng = len(g["blocks"]), g["r"], g["nf"], g["ng"]
-            p = x[g["off"]:g["off"] + K * (nf + ng)].reshape(K, nf + ng)
-            if r == 1:
-                F = np.exp(p[:, 0])
-                out.append((F, 1.0 / F, p[:, 1] if ng else None))
-                continue
-            if g["kind"] == "full":
-                e = np.exp(p[:, 0])
-                eye = np.eye(r)
-                out.append((e[:, None, None] * eye, (1 / e)[:, None, None] * eye, None))
-                continue
-            il, m, ar = g["il"], g["m"], g["ar"]
-            F = np.zeros((K, r, r), complex)
-            F[:, ar, ar] = np.exp(p[:, :r])
-            F[:, il[0], il[1]] = p[:, r:r + m] + 1j * p[:, r + m:r + 2 * m]
-            Fi = np.linalg.inv(F)
-            Gh = None
-            if ng:
-                q = p[:, nf:]
-                Gh = np.zeros((K, r, r), complex)
-                Gh[:, ar, ar] = q[:, :r]
-                Gh[:, il[0], il[1]] = q[:, r:r + m] + 1j * q[:, r + m:r + 2 * m]
-                Gh[:, il[1], il[0]] = np.conj(Gh[:, il[0], il[1]])
-            out.append((F, Fi, Gh))
-        return out
-
-    def apply(self, mats, X, which: int, herm: bool = False) -> np.ndarray:
-        """Block-diagonal product ``B @ X``.
-
-        Parameters
-        ----------
-        mats : list
-            Output of :meth:`unpack`.
-        X : ndarray (N,) or (N, q)
-            Operand.
-        which : int
-            0: ``F``, 1: ``F^-1``, 2: ``Gh`` (zero on blocks without ``G``).
-        herm : bool
-            Use ``B^H``.
-
-        Returns
-        -------
-        ndarray
-        """
-        Y = np.zeros(X.shape, complex)
-        for g, m in zip(self.groups, mats):
-            B = m[which]
-            if B is None:
-                continue
-            if g["r"] == 1:
-                i0 = g["idx"][:, 0]
-                Y[i0] = (B if X.ndim == 1 else B[:, None]) * X[i0]
-                continue
-            if herm:
-                B = np.conj(np.swapaxes(B, 1, 2))
-            if X.ndim == 1:
-                Y[g["idx"]] = (B @ X[g["idx"]][..., None])[..., 0]
-            else:
-                Y[g["idx"]] = B @ X[g["idx"]]
-        return Y
-
-    def gradient(self, mats, xv, u, yv, v) -> np.ndarray:
-        """Gradient of the largest eigenvalue of (1) with respect to the parameters.
-
-        In scaled coordinates, ``d lambda = Re tr(A dF) + Re tr(C dGh)`` blockwise with
-        ``A = 2 (u yv^H - xv v^H)^H F^-1`` and ``C = j (u xv^H - xv u^H)``.
-
-        Parameters
-        ----------
-        mats : list
-            Output of :meth:`unpack`.
-        xv : ndarray (N,)
-            Unit eigenvector of the scaled matrix.
-        u, yv, v : ndarray (N,)
-            ``Mh xv``, ``u - j Gh xv`` and ``Mh^H yv``.
-
-        Returns
-        -------
-        ndarray (nv,)
-        """
-        grad = np.zeros(self.nv)
-        for g, (F, Fi, _Gh) in zip(self.groups, mats):
-            K, r, nf, ng = len(g["blocks"]), g["r"], g["nf"], g["ng"]
-            if r == 1:
-                i0 = g["idx"][:, 0]
-                xi, ui, yi, vi = xv[i0], u[i0], yv[i0], v[i0]
-                A = 2 * np.conj(ui * np.conj(yi) - xi * np.conj(vi)) * Fi
-                gk = np.zeros((K, nf + ng))
-                gk[:, 0] = np.real(A) * F
-                if ng:
-                    gk[:, 1] = -2 * np.imag(ui * np.conj(xi))
-                grad[g["off"]:g["off"] + gk.size] = gk.ravel()
-                continue
-            xi, ui, yi, vi = (a[g["idx"]] for a in (xv, u, yv, v))          # (K, r)
-            P = ui[:, :, None] * yi.conj()[:, None, :] - xi[:, :, None] * vi.conj()[:, None, :]
-            A = 2 * np.conj(np.swapaxes(P, 1, 2)) @ Fi
-            gk = np.zeros((K, nf + ng))
-            if g["kind"] == "full":
-                gk[:, 0] = np.real(np.einsum("kii->k", A @ F))
-            else:
-                il, m, ar = g["il"], g["m"], g["ar"]
-                gk[:, :r] = np.real(A[:, ar, ar]) * np.real(F[:, ar, ar])
-                At = A[:, il[1], il[0]]
-                gk[:, r:r + m] = np.real(At)
-                gk[:, r + m:r + 2 * m] = -np.imag(At)
-                if ng:
-                    C = 1j * (ui[:, :, None] * xi.conj()[:, None, :]
-                              - xi[:, :, None] * ui.conj()[:, None, :])
-                    gk[:, nf:nf + r] = np.real(C[:, ar, ar])
-                    Cl = C[:, il[0], il[1]]
-                    gk[:, nf + r:nf + r + m] = 2 * np.real(Cl)
-                    gk[:, nf + r + m:] = 2 * np.imag(Cl)
-            grad[g["off"]:g["off"] + gk.size] = gk.ravel()
-        return grad
-
-    def dense_scalings(self, x):
-        """The scalings as dense matrices.
-
-        Parameters
-        ----------
-        x : ndarray (nv,)
-            Parameter vector.
-
-        Returns
-        -------
-        D, G : ndarray (N, N)
-        """
-        N = self.N
-        D = np.zeros((N, N), complex)
-        G = np.zeros((N, N), complex)
-        for g, (F, _Fi, Gh) in zip(self.groups, self.unpack(x)):
-            if g["r"] == 1:
-                i0 = g["idx"][:, 0]
-                D[i0, i0] = F ** 2
-                if Gh is not None:
-                    G[i0, i0] = F * Gh * F
-                continue
-            Fh = np.conj(np.swapaxes(F, 1, 2))
-            for k, idx in enumerate(g["idx"]):
-                D[np.ix_(idx, idx)] = F[k] @ Fh[k]
-                if Gh is not None:
-                    G[np.ix_(idx, idx)] = F[k] @ Gh[k] @ Fh[k]
-        return D, G
-
 
 # -------------------------------------------------------------------- evaluation of (1)
-def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True):
+def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True, exact: bool = True):
     """Largest eigenvalue ``lam`` (``bound^2``) of (1) for the scalings ``x``, and its gradient.
 
     In scaled form ``Mh = F^H M F^-H``, ``Gh`` (``D = F F^H``, ``G = F Gh F^H``) the eigenvalue
@@ -361,6 +58,10 @@ def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True):
         Scalings (parameter vector).
     grad : bool
         Also return the gradient with respect to ``x``.
+    exact : bool
+        False allows the Cholesky factor of ``U^H U`` in place of the QR factorisation (ten
+        times faster on hundreds of channels, slightly less accurate: used inside the search,
+        never for the returned bound).
 
     Returns
     -------
@@ -373,20 +74,27 @@ def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True):
     if fm.low_rank:
         Lh = st.apply(mats, fm.L, 0, herm=True)                  # F^H L
         RhH = st.apply(mats, fm.R.conj().T, 1)                   # (R F^-H)^H = F^-1 R^H
-        GL = st.apply(mats, Lh, 2)
+        U = np.hstack([RhH, st.apply(mats, Lh, 2)])
         m, p = fm.K.shape[1], fm.K.shape[0]
         LK = Lh @ fm.K
         Q = np.zeros((m + p, m + p), complex)
         Q[:m, :m] = LK.conj().T @ LK
         Q[:m, m:] = -1j * fm.K.conj().T
         Q[m:, :m] = 1j * fm.K
-        V, T = np.linalg.qr(np.hstack([RhH, GL]))
-        S = T @ Q @ T.conj().T
+        C = None if exact else _gram_factor(U)
+        if C is None:
+            V, T = np.linalg.qr(U)
+            S = T @ Q @ T.conj().T
+        else:
+            S = C.conj().T @ Q @ C
         w, Y = np.linalg.eigh(0.5 * (S + S.conj().T))
         lam = float(w[-1])
         if not grad:
             return lam, None
-        xv = V @ Y[:, -1]
+        if C is None:
+            xv = V @ Y[:, -1]
+        else:                        # U C^-H z is the unit eigenvector of U Q U^H
+            xv = U @ sla.solve_triangular(C, Y[:, -1], lower=True, trans="C")
         u = LK @ (RhH.conj().T @ xv)
         yv = u - 1j * st.apply(mats, xv, 2)
         v = RhH @ (LK.conj().T @ yv)
@@ -404,6 +112,16 @@ def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True):
         yv = u - 1j * st.apply(mats, xv, 2)
         v = Mh.conj().T @ yv
     return lam, st.gradient(mats, xv, u, yv, v)
+
+
+def _gram_factor(U):
+    """Lower Cholesky factor of ``U^H U`` when well conditioned (else None: use QR)."""
+    try:
+        C = np.linalg.cholesky(U.conj().T @ U)
+    except np.linalg.LinAlgError:
+        return None
+    d = np.abs(np.diag(C))
+    return C if d.min() > 1e-5 * d.max() else None
 
 
 def _evaluate_scalar(M, st: BlockStructure, x, grad: bool):
@@ -430,26 +148,30 @@ def _evaluate_scalar(M, st: BlockStructure, x, grad: bool):
 
 
 def _bfgs(f, x, fx, g, stop: float, rtol: float, maxiter: int, window: int = 30,
-          max_step: float = 8.0):
+          max_step: float = 8.0, dense_max: int = 1500, memory: int = 40):
     """BFGS with a weak Wolfe line search (Lewis-Overton, for non-smooth quasi-convex ``f``).
 
     Stops when ``f <= stop``, when ``f`` decreased by less than ``rtol`` relative over the last
-    ``window`` iterations, or after ``maxiter`` iterations.  The inverse Hessian is updated in place
-    (BLAS ``dsyr2``/``dsyr`` on its upper triangle).
+    ``window`` iterations, or after ``maxiter`` iterations.  Up to ``dense_max`` variables the
+    inverse Hessian is kept and updated in place (BLAS ``dsyr2``/``dsyr`` on its upper
+    triangle); above, the last ``memory`` pairs are (L-BFGS, bounded memory).
     """
     from scipy.linalg import blas
     n = x.size
     hist = [fx]
     if fx <= stop:
         return x, fx
-    H = np.asfortranarray(np.eye(n))
+    dense = n <= dense_max
+    H = np.asfortranarray(np.eye(n)) if dense else None
+    pairs = []
     for _ in range(maxiter):
         if fx <= stop:
             break
-        d = -blas.dsymv(1.0, H, g)
+        d = -blas.dsymv(1.0, H, g) if dense else -_two_loop(g, pairs)
         gd = g @ d
         if not gd < 0:
-            H = np.asfortranarray(np.eye(n))
+            H = np.asfortranarray(np.eye(n)) if dense else None
+            pairs = []
             d, gd = -g, -(g @ g)
             if not gd < 0:
                 break
@@ -473,12 +195,31 @@ def _bfgs(f, x, fx, g, stop: float, rtol: float, maxiter: int, window: int = 30,
         hist.append(fx)
         sy = s @ y
         if sy > 1e-12 * np.linalg.norm(s) * np.linalg.norm(y):
-            Hy = blas.dsymv(1.0, H, y)
-            H = blas.dsyr2(-1.0 / sy, Hy, s, a=H, overwrite_a=True)
-            H = blas.dsyr((sy + y @ Hy) / sy ** 2, s, a=H, overwrite_a=True)
+            if dense:
+                Hy = blas.dsymv(1.0, H, y)
+                H = blas.dsyr2(-1.0 / sy, Hy, s, a=H, overwrite_a=True)
+                H = blas.dsyr((sy + y @ Hy) / sy ** 2, s, a=H, overwrite_a=True)
+            else:
+                pairs = [*pairs[-memory + 1:], (s, y, 1.0 / sy)]
         if len(hist) > window and hist[-window - 1] - fx <= rtol * abs(hist[-window - 1]):
             break
     return x, fx
+
+
+def _two_loop(g, pairs):
+    """L-BFGS product ``H g`` from the stored ``(s, y, 1 / s.y)`` pairs."""
+    q = g.copy()
+    alpha = []
+    for s, y, rho in reversed(pairs):
+        a = rho * (s @ q)
+        alpha.append(a)
+        q -= a * y
+    if pairs:
+        s, y, _ = pairs[-1]
+        q *= (s @ y) / (y @ y)
+    for (s, y, rho), a in zip(pairs, reversed(alpha)):
+        q += (a - rho * (y @ q)) * s
+    return q
 
 
 def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol: float = 1e-4,
@@ -510,20 +251,25 @@ def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol:
     """
     if x0 is None:
         x0 = st.start(osborne(block_norms(fm, st)[None])[0])
+    x0 = np.array(x0, float)
     lam0, g0 = evaluate(fm, st, x0)
+    if lam0 <= stop ** 2:
+        return float(np.sqrt(max(lam0, 0.0))), x0
     scale = max(lam0, 1e-300)
 
     def f(x):
         try:
-            lam, g = evaluate(fm, st, x)
+            lam, g = evaluate(fm, st, x, exact=False)
         except (FloatingPointError, np.linalg.LinAlgError):
             return np.inf, np.zeros_like(x)
         return lam / scale, g / scale
 
     with np.errstate(over="raise", invalid="raise"):     # runaway scalings: a failed step
-        x, lam = _bfgs(f, np.array(x0, float), lam0 / scale, g0 / scale, stop ** 2 / scale,
-                       rtol, maxiter)
-    return float(np.sqrt(max(lam * scale, 0.0))), x
+        x, _ = _bfgs(f, x0, lam0 / scale, g0 / scale, stop ** 2 / scale, rtol, maxiter)
+    lam = evaluate(fm, st, x, grad=False)[0]              # the certificate, exactly
+    if lam > lam0:
+        x, lam = x0, lam0
+    return float(np.sqrt(max(lam, 0.0))), x
 
 
 def block_norms(fm: Factored, st: BlockStructure) -> np.ndarray:

@@ -91,13 +91,25 @@ def cheap_bounds(Ks, L, R, st: BlockStructure):
         Certified ``||D^(1/2) M D^(-1/2)||`` (an upper bound of mu for any block kinds).
     d : ndarray (nf, nb)
         The block scalings (``st.start(d[i])`` is the parameter vector).
+
+    Notes
+    -----
+    Frequencies are taken in chunks so that no array exceeds a few million entries,
+    whatever the number of channels.
     """
-    d = osborne(np.sqrt(block_norms_squared(Ks, L, R, st)))
-    sq = np.sqrt(d[:, st.block_of_channel])                          # (nf, N)
-    T1 = np.linalg.qr(sq[:, :, None] * L[None])[1]
-    T2 = np.linalg.qr(R.conj().T[None] / sq[:, :, None])[1]
-    core = T1 @ Ks @ np.conj(np.swapaxes(T2, 1, 2))
-    return np.linalg.svd(core, compute_uv=False)[:, 0], d
+    nb, N = len(st.sizes), st.N
+    chunk = max(1, int(4e6 // (nb * nb + N * (L.shape[1] + R.shape[0]))))   # bounded memory
+    bounds, ds = [], []
+    for i in range(0, len(Ks), chunk):
+        K = Ks[i:i + chunk]
+        d = osborne(np.sqrt(block_norms_squared(K, L, R, st)))
+        sq = np.sqrt(d[:, st.block_of_channel])                      # (nf, N)
+        T1 = np.linalg.qr(sq[:, :, None] * L[None])[1]
+        T2 = np.linalg.qr(R.conj().T[None] / sq[:, :, None])[1]
+        core = T1 @ K @ np.conj(np.swapaxes(T2, 1, 2))
+        bounds.append(np.linalg.svd(core, compute_uv=False)[:, 0])
+        ds.append(d)
+    return np.concatenate(bounds), np.concatenate(ds)
 
 
 def interval(fs: FactoredSystem, st: BlockStructure, x, beta: float, w0: float,

@@ -172,6 +172,18 @@ def _start_frequencies(A, freq, w_cross):
     return np.unique(np.concatenate([np.asarray(p, float) for p in pts]))
 
 
+def _check_options(eps, rtol, n_directions, freq):
+    eps, rtol = float(eps), float(rtol)
+    if not (np.isfinite(eps) and eps > 0):
+        raise ValueError(f"eps must be a positive regularisation (e.g. 0.005), got {eps}")
+    if not (np.isfinite(rtol) and 0 < rtol < 1):
+        raise ValueError(f"rtol must be in (0, 1), got {rtol}")
+    if isinstance(n_directions, bool) or not isinstance(n_directions, int | np.integer) \
+            or n_directions < 0:
+        raise ValueError(f"n_directions must be an integer >= 0, got {n_directions!r}")
+    return eps, rtol, None if freq is None else check_freq(freq, "freq")
+
+
 def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions: int = 20,
                      seed: int = 0, rtol: float = 0.005, progress: bool | None = None,
                      executor=None) -> RobustResult:
@@ -206,17 +218,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
     RobustResult
     """
     t0 = time.perf_counter()
-    eps = float(eps)
-    if not (np.isfinite(eps) and eps > 0):
-        raise ValueError(f"eps must be a positive regularisation (e.g. 0.01), got {eps}")
-    rtol = float(rtol)
-    if not (np.isfinite(rtol) and 0 < rtol < 1):
-        raise ValueError(f"rtol must be in (0, 1), got {rtol}")
-    if isinstance(n_directions, bool) or not isinstance(n_directions, int | np.integer) \
-            or n_directions < 0:
-        raise ValueError(f"n_directions must be an integer >= 0, got {n_directions!r}")
-    if freq is not None:
-        freq = check_freq(freq, "freq")
+    eps, rtol, freq = _check_options(eps, rtol, n_directions, freq)
     fs, reps = _closed_loop(um, controller)
     nb = len(reps)
     stable = bool(np.all(np.linalg.eigvals(fs.A).real < 0))
