@@ -232,6 +232,13 @@ def _point(fs: FactoredSystem, st: BlockStructure, w: float, K, d, x0, level: fl
     return bound, x, span
 
 
+def _nearest(dg_w, dg_x, w: float, wanted: bool):
+    """Scalings of the D-G frequency nearest ``w`` (log scale), to warm start; None if none."""
+    if not wanted or not dg_w:
+        return None
+    return dg_x[int(np.argmin(np.abs(np.log1p(np.array(dg_w)) - np.log1p(w))))]
+
+
 def _gaps(intervals, w_max: float):
     """Uncovered parts of ``[0, inf)`` (closed intervals may touch)."""
     if not intervals:
@@ -247,7 +254,12 @@ def _gaps(intervals, w_max: float):
     return gaps
 
 
-def _gap_point(a: float, b: float, w_ref: float) -> float:
+def _pick(a: float, b: float, cand, cheap, w_ref: float) -> float:
+    """Frequency to try in the gap ``(a, b)``: the start frequency of largest cheap bound
+    strictly inside, else the middle (geometric for wide gaps, beyond ``a`` if unbounded)."""
+    inside = (cand > a) & (cand < b)
+    if np.any(inside):
+        return float(cand[inside][np.argmax(cheap[inside])])
     if not np.isfinite(b):
         return max(2.0 * a, a + w_ref)
     if a > 0 and b / a > 1.5:
@@ -256,8 +268,13 @@ def _gap_point(a: float, b: float, w_ref: float) -> float:
 
 
 def cover(fs: FactoredSystem, st: BlockStructure, w_start, level: float, rtol: float = 0.01,
-          executor=None, bar=None, max_points: int = 3000) -> CoverResult:
+          executor=None, bar=None, max_points: int = 3000, warm=None) -> CoverResult:
     """Certify ``mu(M(j w)) <= level`` on ``[0, inf)``, raising ``level`` where needed.
+
+    The cheap bound is computed at every ``w_start`` (vectorised) and certifies intervals
+    where it is below the level.  Then, in rounds, one frequency per uncovered gap (the start
+    frequency of largest cheap bound in it, else its middle) gets the D-G bound, warm started
+    from the nearest D-G frequency, and the interval its scalings certify.
 
     Parameters
     ----------
@@ -278,32 +295,43 @@ def cover(fs: FactoredSystem, st: BlockStructure, w_start, level: float, rtol: f
         Updated once per frequency.
     max_points : int
         Give up (``certified=False``) after that many frequencies.
+    warm : tuple, optional
+        ``(w, x)``: scalings already optimised at ``w`` (warm start for its neighbours).
 
     Returns
     -------
     CoverResult
     """
     w_ref = float(np.max(np.abs(np.linalg.eigvals(fs.A)), initial=1.0))
-    todo = np.unique(np.asarray(w_start, float))
-    ws, bounds, xs, dg_w, dg_x, intervals = [], [], [], [], [], []
+    cand = np.unique(np.asarray(w_start, float))
+    ws, bounds, intervals = [], [], []
+    dg_w, dg_x = ([float(warm[0])], [warm[1]]) if warm is not None else ([], [])
     n_dg, certified = 0, True
-    while todo.size:
+    run = executor.map if executor is not None else map
+    cheap_c, d_c = cheap_bounds(fs.core(cand), fs.L, fs.R, st)
+    ok = cheap_c < level / (1 + rtol)
+    for i in np.flatnonzero(ok):                    # cheap certificates: no optimisation
+        span = interval(fs, st, st.start(d_c[i]), level, cand[i])
+        if span[0] <= span[1]:
+            intervals.append(span)
+            ws.append(float(cand[i]))
+            bounds.append(float(cheap_c[i]))
+    if bar is not None:
+        bar.update(int(ok.sum()))
+    while True:
+        gaps = _gaps(intervals, w_ref)
+        if not gaps:
+            break
+        todo = np.array([_pick(a, b, cand, cheap_c, w_ref) for a, b in gaps])
         Ks = fs.core(todo)
         cheap, d = cheap_bounds(Ks, fs.L, fs.R, st)
         stop = level / (1 + rtol)
-        jobs = []
-        for i, w in enumerate(todo):
-            x0 = None
-            if cheap[i] > stop and dg_w:
-                x0 = dg_x[int(np.argmin(np.abs(np.log1p(np.array(dg_w)) - np.log1p(w))))]
-            jobs.append((fs, st, float(w), Ks[i], d[i], x0, level, stop))
-        run = executor.map if executor is not None else map
-        results = list(run(_point, *zip(*jobs)))
-        new_level = level
-        for (w, c), (b, x, span) in zip(zip(todo, cheap), results):
+        jobs = [(fs, st, float(w), Ks[i], d[i], _nearest(dg_w, dg_x, w, cheap[i] > stop), level,
+                 stop) for i, w in enumerate(todo)]
+        failed = []
+        for (w, c), (b, x, span) in zip(zip(todo, cheap), run(_point, *zip(*jobs))):
             ws.append(float(w))
             bounds.append(b)
-            xs.append(x)
             if c > stop:
                 n_dg += 1
                 dg_w.append(float(w))
@@ -311,21 +339,18 @@ def cover(fs: FactoredSystem, st: BlockStructure, w_start, level: float, rtol: f
             if span[0] <= span[1]:
                 intervals.append(span)
             else:
-                new_level = max(new_level, b * (1 + rtol))
-        if new_level > level:
-            level = new_level
-            for w, b, x in zip(ws[-len(todo):], bounds[-len(todo):], xs[-len(todo):]):
-                if b >= level / (1 + rtol) ** 2 and b < level:
-                    span = interval(fs, st, x, level, w)
-                    if span[0] <= span[1]:
-                        intervals.append(span)
+                failed.append((float(w), b, x))
+            if bar is not None:
+                bar.update()
+        if failed:                       # raise the level; certify these points at it
+            level = max(b for _, b, _ in failed) * (1 + rtol)
+            spans = [interval(fs, st, x, level, w) for w, _, x in failed]
+            intervals += [sp for sp in spans if sp[0] <= sp[1]]
         if bar is not None:
-            bar.update(len(todo))
             bar.set_postfix_str(f"mu <= {level:.4g}, {n_dg} D-G")
         if len(ws) >= max_points:
             certified = False
             break
-        todo = np.array([_gap_point(a, b, w_ref) for a, b in _gaps(intervals, w_ref)])
     o = np.argsort(ws)
     w_arr, b_arr = np.array(ws)[o], np.array(bounds)[o]
     return CoverResult(float(level), certified, w_arr, b_arr, float(w_arr[np.argmax(b_arr)]),

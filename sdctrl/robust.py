@@ -240,8 +240,9 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
             w_pk = low.frequency
         else:
             w_pk = float(w0[np.argmax(cheap_bounds(fsa.core(w0), fsa.L, fsa.R, st)[0])])
-        b_pk = dg_upper(Factored(fsa.core(w_pk)[0], fsa.L, fsa.R), st)[0]
-        res = cover(fsa, st, w0, max(b_pk, mu_lo) * (1 + rtol), rtol, executor, bar)
+        b_pk, x_pk = dg_upper(Factored(fsa.core(w_pk)[0], fsa.L, fsa.R), st)
+        res = cover(fsa, st, w0, max(b_pk, mu_lo) * (1 + rtol), rtol, executor, bar,
+                    warm=(w_pk, x_pk))
         if res.level * low.alpha > 1 + 5 * rtol:      # refine the lower bound at the peak
             better = destabilise(fs, reps, n_random=4 * n_directions, seed=seed + 1,
                                  near=res.peak_w)
