@@ -18,7 +18,14 @@ import numpy as np
 
 from sdctrl._statespace import ss_frf
 from sdctrl._threads import single_thread
-from sdctrl.mu import BlockStructure, Factored, block_norms_squared, dg_upper, osborne
+from sdctrl.mu import (
+    BlockStructure,
+    Factored,
+    block_norms_squared,
+    dg_upper,
+    evaluate,
+    osborne,
+)
 
 __all__ = ["CoverResult", "FactoredSystem", "cheap_bounds", "cover", "interval"]
 
@@ -227,6 +234,9 @@ def _point(fs: FactoredSystem, st: BlockStructure, w: float, K, d, x0, level: fl
     with single_thread():
         fm = Factored(K, fs.L, fs.R)
         xc = st.start(d)
+        if x0 is not None and evaluate(fm, st, x0, grad=False)[0] > evaluate(
+                fm, st, xc, grad=False)[0]:
+            x0 = None                     # the balanced start is better than the neighbour's
         bound, x = dg_upper(fm, st, x0=xc if x0 is None else x0, stop=stop)
         span = interval(fs, st, x, level, w) if bound < level else (w, w - 1.0)
     return bound, x, span
