@@ -406,13 +406,11 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
         ``(Maug, D, G)`` certifying the bound on the augmented matrix.
     """
     M = np.asarray(M, complex)
-    if eps > 0:
-        Maug = np.block([[M, M], [eps * M, eps * M]])
-    else:
-        Maug = M
+    n = int(sum(reps))
+    if M.shape != (n, n):
+        raise ValueError(f"M must be {n} x {n} (the channels of reps), got shape {M.shape}")
+    Maug = np.block([[M, M], [eps * M, eps * M]]) if eps > 0 else M
     st = BlockStructure.real_repeated(reps, eps)
-    if Maug.shape != (st.N, st.N):
-        raise ValueError(f"M must be ({st.N // (2 if eps > 0 else 1)}, ...) to match reps")
     if not np.any(Maug):
         return 0.0, (Maug, np.eye(st.N), np.zeros((st.N, st.N)))
     bound, x = dg_upper(Factored(Maug), st, stop=lower, rtol=min(rtol, 1e-3) * 0.1)
