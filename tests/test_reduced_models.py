@@ -109,7 +109,7 @@ def test_perturbation_is_first_order_exact():
     X = rng.standard_normal((3, 3))
     dK = X + X.T
     for eps in (1e-2, 1e-3):
-        w2, A = perturbation(lam, np.zeros((3, 3)), eps * dK)
+        w2, _ = perturbation(lam, np.zeros((3, 3)), eps * dK)
         exact = sla.eigvalsh(np.diag(lam) + eps * dK)
         assert np.abs(w2 - exact).max() < 20 * eps**2
     # a mass change lowers the frequency by -omega^2 dmu_jj
@@ -177,6 +177,7 @@ def test_correlation_criteria_on_exact_modes(fe):
     assert np.allclose(stiff, np.diag((2 * np.pi * f[6:]) ** 2), rtol=1e-9, atol=1e-6)
     mu, om = modal_energies(phi[:, 6:9], fe.M, fe.K)
     assert np.allclose(mu, np.eye(3), atol=1e-9)
+    assert np.allclose(np.diag(om), (2 * np.pi * f[6:9]) ** 2, rtol=1e-9)
     # a model 25% too heavy on the plates: modal mass of the true modes above 1
     heavy = sd.testbed(plate_mass=1.25)
     mu_h, _ = modal_energies(phi[:, 6:9], heavy.M, heavy.K)
