@@ -16,19 +16,68 @@ cost (3.12).  Damping follows the choice of :func:`sdctrl.update`:
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
 
 from sdctrl.updating.basis import reduced_basis
-from sdctrl.updating.expansion import pair_modes
+from sdctrl.updating.costs import mac as mac_matrix
 from sdctrl.updating.parametric import modal_damping, reduced_model
 
-__all__ = ["UpdateProblem", "apply_parameters", "build_problem"]
+__all__ = ["UpdateProblem", "apply_parameters", "build_problem", "cluster_pairing"]
 
 #: pairs with a MAC below this are not used to transfer the identified damping
 MAC_DAMPING = 0.6
+#: FE modes whose frequencies agree to this relative tolerance are paired as a subspace
+CLUSTER_RTOL = 1e-4
+
+
+def cluster_pairing(cphi_fe, freq, shapes, rtol: float = CLUSTER_RTOL):
+    """MAC pairing (4.9) of test modes with FE modes, robust to (nearly) multiple FE modes.
+
+    Within a cluster of FE modes whose frequencies agree to ``rtol`` (the doublets of a
+    symmetric structure) the individual shapes are arbitrary combinations that rotate with
+    the smallest change; each member is given the MAC of the test shape with the cluster's
+    *subspace* (``||Q^H y||^2 / ||y||^2``), which is stable.  The assignment then maximises
+    the total MAC, one FE mode per test mode.
+
+    Parameters
+    ----------
+    cphi_fe : ndarray, shape (ns, m)
+        FE observabilities, modes sorted by frequency (``m >= n``).
+    freq : ndarray, shape (m,)
+        Their frequencies.
+    shapes : ndarray, shape (ns, n)
+        Test observabilities.
+    rtol : float
+        Relative frequency tolerance of a cluster.
+
+    Returns
+    -------
+    index : ndarray of int, shape (n,)
+        FE mode paired with each test mode.
+    mac : ndarray, shape (n,)
+        (Subspace) MAC of each pair.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    macs = mac_matrix(cphi_fe, shapes)
+    scale = max(float(np.abs(freq).max()), 1e-300)
+    starts = np.flatnonzero(np.r_[True, np.diff(freq) > rtol * np.maximum(freq[1:], scale * 1e-9)])
+    bounds = np.r_[starts, freq.size]
+    Y = np.asarray(shapes)
+    ny = np.sum(np.abs(Y) ** 2, axis=0)
+    for a, b in itertools.pairwise(bounds):
+        if b - a > 1:
+            Q, _ = np.linalg.qr(cphi_fe[:, a:b])
+            sub = np.sum(np.abs(Q.conj().T @ Y) ** 2, axis=0) / np.maximum(ny, 1e-300)
+            macs[a:b] = sub[None, :]
+    rows, cols = linear_sum_assignment(-macs)
+    index = np.empty(macs.shape[1], int)
+    index[cols] = rows
+    return index, macs[index, np.arange(macs.shape[1])]
 
 
 def apply_parameters(fe, parameters, values):
@@ -176,7 +225,7 @@ class UpdateProblem:
         f = np.sqrt(np.clip(w2, 0, None)) / (2 * np.pi)
         ftop = 2.0 * float(self.modes.frequency.max()) if self.modes.n else 0.0
         m = max(int(np.searchsorted(f, ftop)), self.modes.n)
-        index, mac, _ = pair_modes(self.rm.c @ X[:, :m], self.modes.shapes)
+        index, mac = cluster_pairing(self.rm.c @ X[:, :m], f[:m], self.modes.shapes)
         return index, mac, f, X
 
     def frequency_residual(self, p) -> np.ndarray:
