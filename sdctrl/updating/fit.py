@@ -200,9 +200,13 @@ def damping_choice(fe, damping):
     return ("modal", z), None
 
 
-def _solve(fun, x0, lo, hi, scale, diff_step, max_nfev):
+def _solve(fun, x0, lo, hi, scale, diff_step, max_nfev, what="logLS"):
+    """Bounded trust-region least squares; warns when the evaluation limit stops it."""
     res = least_squares(fun, x0, bounds=(lo, hi), x_scale=scale, diff_step=diff_step,
                         ftol=1e-12, xtol=1e-10, gtol=1e-12, max_nfev=max_nfev, method="trf")
+    if res.status == 0:
+        warnings.warn(f"update: the {what} stage stopped at its evaluation limit "
+                      f"(max_nfev={max_nfev}) before converging", RuntimeWarning, stacklevel=4)
     return np.clip(res.x, lo, hi), int(res.nfev)
 
 
@@ -295,6 +299,9 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
     try:
         with single_thread():
             prob = build_problem(fe, measured, pars, choice, modes, fmax=fmax, loads=loads)
+            if modes.n == 0:
+                warnings.warn("update: no mode identified in the test; frequencies and MAC "
+                              "are not reported", RuntimeWarning, stacklevel=2)
             p = np.zeros(npar)
             cost_before = prob.cost(p)
             before = prob.pairing(p) if modes.n else None
@@ -317,6 +324,10 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             model = _normal_mode_model(prob1, fe1, measured)
     finally:
         bar.close()
+    if cost_after > cost_before:
+        warnings.warn(f"update: the updated model fits the data worse than the nominal one "
+                      f"(logLS {cost_before:.3g} -> {cost_after:.3g}); check the parameters, "
+                      "the band and the damping", RuntimeWarning, stacklevel=2)
     return UpdateResult(
         values={par.name: float(v) for par, v in zip(pars, p)}, fe=fe1,
         cost_before=float(cost_before), cost_after=float(cost_after), parameters=pars,
@@ -332,7 +343,7 @@ def _frequency_stage(prob, p, lo, hi, scale, nfev_max):
         warnings.warn(f"update: {prob.modes.n} test modes for {prob.npar} parameters; the "
                       "frequency stage is skipped", stacklevel=3)
         return p, 0
-    return _solve(prob.frequency_residual, p, lo, hi, scale, 1e-4, nfev_max)
+    return _solve(prob.frequency_residual, p, lo, hi, scale, 1e-4, nfev_max, "frequency")
 
 
 def _resolve(fe, measured, pars, choice, modes, prob, p, opts, fmax, loads, stages, strategy):
