@@ -24,6 +24,7 @@ from sdctrl._validate import as_array, check_freq, check_labels, check_quantity
 from sdctrl.fe import eigen, reduction
 from sdctrl.fe import static as statics
 from sdctrl.fe.eigen import RIGID_RTOL
+from sdctrl.fe.groups import Assembly, ElementGroups
 from sdctrl.fe.validation import check_matrix, check_positive_definite, io_shapes
 
 __all__ = ["FEModel"]
@@ -32,7 +33,7 @@ __all__ = ["FEModel"]
 # ----------------------------------------------------------------------------------------
 # the model
 # ----------------------------------------------------------------------------------------
-class FEModel:
+class FEModel(ElementGroups):
     """Finite element model ``M q'' + C q' + K q = b u``, ``y = c q`` (thesis 2.1, 4.3).
 
     Parameters
@@ -51,6 +52,10 @@ class FEModel:
     elements : sequence of (str, str), optional
         Node-name pairs of the elements (bars, beams, springs) that diagnosis and
         placement studies scan.
+    assembly : Assembly, optional
+        Element groups and lumped masses, as :func:`~sdctrl.fe.assemble` records them:
+        :meth:`stiffness_parameter`, :meth:`mass_parameter` and :meth:`member_matrices`
+        rebuild matrices of element groups from it.  Models built from matrices have none.
 
     Raises
     ------
@@ -75,10 +80,11 @@ class FEModel:
     array([1.      , 1.732051])
     """
 
-    __slots__ = ("C", "K", "M", "_cache", "_index", "dofs", "elements", "nodes")
+    __slots__ = ("C", "K", "M", "_cache", "_index", "assembly", "dofs", "elements", "nodes")
 
     def __init__(self, M, K, C=None, dofs: Sequence[str] | None = None,
-                 nodes: Mapping | None = None, elements: Sequence | None = None):
+                 nodes: Mapping | None = None, elements: Sequence | None = None, *,
+                 assembly: Assembly | None = None):
         Mv = check_matrix(M, "M")
         N = Mv.shape[0]
         Kv = check_matrix(K, "K", N)
@@ -115,7 +121,10 @@ class FEModel:
                     raise ValueError(f"elements: pair {e!r} names a node missing from nodes")
                 elem.append((a, b))
             elem = tuple(elem)
+        if assembly is not None and (not isinstance(assembly, Assembly) or assembly.N != N):
+            raise ValueError(f"assembly must be the Assembly record of a model of N={N} DOFs")
         sets = object.__setattr__
+        sets(self, "assembly", assembly)
         sets(self, "M", Mv)
         sets(self, "K", Kv)
         sets(self, "C", Cv)
