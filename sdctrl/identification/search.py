@@ -115,6 +115,11 @@ class PoleProblem:
         npp = self.npp
         par = np.arange(2 * n) if free is None else np.asarray(free)
         P = par.size
+        if P == 0:                                     # no pole: nothing to differentiate
+            out["grad"] = np.zeros(0)
+            if jac:
+                out["JtJ"] = np.zeros((0, 0))
+            return
         poles_needed = np.unique(par % n)
         deriv = basis_derivatives(lam[poles_needed], w[poles_needed], z[poles_needed],
                                   self.s, self.k, self.model)      # (2, nf, needed, npp)

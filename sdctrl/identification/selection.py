@@ -1,7 +1,7 @@
 """Automatic pole selection of :func:`~sdctrl.identify` when no poles are given (3.2.1).
 
-Starting from :func:`initial_candidates` (peaks of the indicator functions,
-:func:`~sdctrl.identification.poles.peak_candidates`), :class:`AutoSelection` iterates:
+Starting from the initial candidates (:mod:`~sdctrl.identification.initial`: stable
+LSCF poles and peaks of the indicator functions), :class:`AutoSelection` iterates:
 add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification.scan`),
 drop poles that do not converge (pushed to a bound), fit noise (half-power bandwidth below
 a fraction of the line spacing), are in-band fillers with very large damping or are not
@@ -28,49 +28,7 @@ from sdctrl.identification.noise import NoiseTest
 from sdctrl.identification.scan import ResidualScan
 from sdctrl.identification.search import search_poles
 
-__all__ = ["AutoSelection", "initial_candidates"]
-
-
-def initial_candidates(frf, data, fband):
-    """Initial poles of the automatic selection: peaks in the band and just outside it.
-
-    Parameters
-    ----------
-    frf : FRF
-        All the measured lines (peaks just outside the band are looked for in them).
-    data : FRF
-        The lines of the band.
-    fband : (float, float)
-        Band in Hz.
-
-    Returns
-    -------
-    w0 : ndarray
-        Natural frequencies (rad/s).
-    z0 : ndarray
-        Damping ratios.
-    side : ndarray of int
-        0 in band, -1 below, +1 above.
-    """
-    from sdctrl.identification.poles import peak_candidates
-
-    nf = data.freq.size
-    f0, z0, _ = peak_candidates(data.freq, data.H, 4, 2.0, None) if nf >= 3 else ([], [], [])
-    w0 = 2 * np.pi * np.asarray(f0, float)
-    z0 = np.asarray(z0, float)
-    side = np.zeros(w0.size, int)
-    # peaks in data just outside the band, when the FRF has them
-    lo_extra = (frf.freq >= 0.75 * fband[0]) & (frf.freq < fband[0])
-    hi_extra = (frf.freq > fband[1]) & (frf.freq <= 1.25 * fband[1])
-    for sel, sd in ((lo_extra, -1), (hi_extra, 1)):
-        if np.count_nonzero(sel) >= 5:
-            fo, zo, so = peak_candidates(frf.freq[sel], frf.H[sel], 4, 2.0, None)
-            if fo.size:
-                i = np.argmax(so)
-                w0 = np.append(w0, 2 * np.pi * fo[i])
-                z0 = np.append(z0, zo[i])
-                side = np.append(side, sd)
-    return w0, z0, side
+__all__ = ["AutoSelection"]
 
 
 class AutoSelection:
@@ -315,7 +273,6 @@ class AutoSelection:
         w, z, side = self._drop_weak_candidates(w, z, side)
         state = self.best = self._first_fit(w, z, side)
         tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
-        failed_adds = 0
         for _ in range(rounds):
             w, z, side, ev, info = state
             if bar is not None:
@@ -324,22 +281,21 @@ class AutoSelection:
             if pr is not None:
                 state = self.best = self._first_fit(*pr)
                 continue
+            if ev["cost"] <= self.noise.floor:
+                break                         # numerically exact: nothing left to find
             new = self._out_of_band(state, tried_side)
             if new is not None:
-                state, failed_adds = new, 0
+                state = new
                 continue
-            # missed in-band modes: add at residual peaks, keep the significant ones
-            if failed_adds >= 2:
-                break
+            # missed in-band modes: add at residual peaks, keep the significant ones;
+            # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
             if not cand:
                 break
             new = self._add_missed(state, cand)
             if new is None:
-                failed_adds += 1
-                continue
+                break
             state = self.best = new
-            failed_adds = 0
         else:
             self.warn(f"automatic pole selection stopped after {rounds} rounds")
         return self.best
