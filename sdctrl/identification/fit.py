@@ -185,7 +185,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         if V is not None:
             info["compression_residual"] = float(max(normH2 - float(np.sum(Y**2)), 0) / normH2)
         if auto:
-            w0, z0, side = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max, info)
+            w0, z0, side, pending = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max,
+                                               info)
             _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
         messages = []
         opts = (fband, optimizer, max_iter, tol)
@@ -197,7 +198,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
                                     _noise_shape(data, Hm, V))
-                w, z, side = _select(sel, w0, z0, side, bar, info, messages)
+                w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
                     raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"
                                      f"{fband[1]:g} Hz (no significant resonance in the "
@@ -234,8 +235,8 @@ def _check_lines(nf, n_par, n_poles):
 
 
 def _algebraic(freq, Y, fband, peaks, zeta_max, info):
-    """Peak candidates merged with the stable LSCF poles; the LSCF poles of every order
-    go to ``info["stabilisation"]``."""
+    """Peak candidates merged with the stable LSCF poles (and which peaks are pending);
+    the LSCF poles of every order go to ``info["stabilisation"]``."""
     w0, z0, side = peaks
     w_l, z_l, stab = lscf_candidates(freq, Y, fband, int(np.count_nonzero(side == 0)),
                                      zeta_max)
@@ -318,10 +319,11 @@ def _noise_shape(data, Hm, V):
     return pv if V is None else pv @ V**2
 
 
-def _select(sel, w0, z0, side, bar, info, messages):
+def _select(sel, start, bar, info, messages):
     """Automatic selection; Ctrl-C returns the last complete fit, flagged in ``info``."""
+    w0, z0, side, pending = start
     try:
-        w, z, side, _ev, sinfo = sel.run(w0, z0, side, bar)
+        w, z, side, _ev, sinfo = sel.run(w0, z0, side, bar, pending=pending)
     except KeyboardInterrupt:
         if sel.best is None:
             raise

@@ -155,11 +155,14 @@ def initial_candidates(w_l, z_l, w0, z0, side, df: float):
         Natural frequencies (rad/s) and damping ratios.
     side : ndarray of int
         0 in band, -1 below, +1 above.
+    pending : ndarray of bool
+        The in-band peaks no LSCF pole explains (fitted after the others).
     """
     if w_l.size == 0:
-        return w0, z0, side
+        return w0, z0, side, np.zeros(w0.size, bool)
     tol = np.maximum(2 * np.pi * 1.5 * df, z_l * w_l)
     near = np.any(np.abs(w0[:, None] - w_l[None, :]) <= tol[None, :], axis=1)
     extra = (side != 0) | ~near
     return (np.concatenate([w_l, w0[extra]]), np.concatenate([z_l, z0[extra]]),
-            np.concatenate([np.zeros(w_l.size, int), side[extra]]))
+            np.concatenate([np.zeros(w_l.size, int), side[extra]]),
+            np.concatenate([np.zeros(w_l.size, bool), side[extra] == 0]))

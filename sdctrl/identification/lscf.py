@@ -135,7 +135,8 @@ def stable_poles(poles: list[np.ndarray], fband, zeta_max: float, depth: int = 3
     A pole of order ``n_k`` is confirmed by order ``n_(k-1)`` when that order has a pole
     within ``freq_tol`` half-power bandwidths ``zeta f`` in frequency and within
     ``damping_tol`` (relative) in damping ratio; the chain is followed down from the
-    last order.
+    last order.  Two kept poles closer than a third of the smaller half-power bandwidth
+    are merged (one mode split in two roots).
 
     Parameters
     ----------
@@ -170,4 +171,16 @@ def stable_poles(poles: list[np.ndarray], fband, zeta_max: float, depth: int = 3
                 (np.abs(zc - zp[j]) <= damping_tol * zc)
         fc, zc = fp[j], zp[j]
     order = np.argsort(f[keep])
-    return 2 * np.pi * f[keep][order], z[keep][order]
+    f, z = f[keep][order], z[keep][order]
+    # one mode split into two stable roots (seen on noisy MIMO data): closer than a
+    # third of the smaller half-power bandwidth, they are one pole (distinct close
+    # modes are further apart: beyond that they are not resolved by the data anyway)
+    i = 0
+    while i < f.size - 1:
+        if f[i + 1] - f[i] < min(z[i] * f[i], z[i + 1] * f[i + 1]) / 3:
+            f[i] = 0.5 * (f[i] + f[i + 1])
+            z[i] = np.sqrt(z[i] * z[i + 1])
+            f, z = np.delete(f, i + 1), np.delete(z, i + 1)
+        else:
+            i += 1
+    return 2 * np.pi * f, z

@@ -188,19 +188,19 @@ class AutoSelection:
             reasons.setdefault(j, f"filler (damping above {self.zeta_max:g})")
         return reasons
 
-    def _drop_weak_candidates(self, w, z, side):
+    def _drop_weak_candidates(self, w, z, side, pending):
         """Initial candidates far below the noise threshold at their picked position
         (noise peaks of the indicator functions) are dropped before the first, costly,
         fit; a true mode dropped here is not excluded from the residual scan."""
         if w.size <= 1:
-            return w, z, side
+            return w, z, side, pending
         x = np.concatenate([np.log(w), np.log(z)])
         sig0 = self.significance(w, z, self.prob.evaluate(x))
         keep = (sig0 >= 0.2) | (side != 0)
         for j in np.flatnonzero(~keep):
             self.log.append(("dropped candidate", float(w[j] / (2 * np.pi)), float(z[j]),
                              f"cost change {sig0[j]:.3g} x noise threshold"))
-        return w[keep], z[keep], side[keep]
+        return w[keep], z[keep], side[keep], pending[keep]
 
     def _out_of_band(self, state, tried_side):
         """Modes just outside the band (their tails distort the in-band residual),
@@ -229,9 +229,10 @@ class AutoSelection:
                 self.best = state
         return changed
 
-    def _add_missed(self, state, cand):
-        """Fit the candidates of the residual scan; the new state, or None when none of
-        them is kept (the rejected ones are in ``self.tried``)."""
+    def _add_missed(self, state, cand, reason="residual peak"):
+        """Fit the candidates of the residual scan (or pending initial candidates); the
+        new state, or None when none of them is kept (the rejected ones are in
+        ``self.tried``)."""
         w, z, side = state[:3]
         n0 = w.size
         wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
@@ -247,11 +248,10 @@ class AutoSelection:
         keep = np.concatenate([np.arange(n0), ok])
         w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
         for j in range(n0, keep.size):
-            self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]),
-                             "residual peak"))
+            self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]), reason))
         return w2, z2, sn[keep], ev2, info2
 
-    def run(self, w, z, side, bar=None, rounds=20):
+    def run(self, w, z, side, bar=None, rounds=20, pending=None):
         """The add/remove loop from initial poles ``(w rad/s, z, side)``.
 
         Parameters
@@ -264,14 +264,25 @@ class AutoSelection:
             Shows the number of poles and the relative cost.
         rounds : int
             Maximum number of rounds.
+        pending : ndarray of bool, optional
+            Candidates added after the first fit, as new poles fitted alone first (the
+            peaks no LSCF pole explains): a noise peak in the first full search would
+            wander to a bound and cost many evaluations.
 
         Returns
         -------
         tuple
             ``(w, z, side, ev, info)`` of the last fit (also kept in :attr:`best`).
         """
-        w, z, side = self._drop_weak_candidates(w, z, side)
-        state = self.best = self._first_fit(w, z, side)
+        pending = np.zeros(w.size, bool) if pending is None else np.asarray(pending, bool)
+        w, z, side, pending = self._drop_weak_candidates(w, z, side, pending)
+        if pending.all():
+            pending[:] = False
+        state = self.best = self._first_fit(w[~pending], z[~pending], side[~pending])
+        if pending.any():
+            new = self._add_missed(state, list(zip(w[pending] / (2 * np.pi), z[pending])),
+                                   "peak of the indicator functions")
+            state = self.best = state if new is None else new
         tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
         for _ in range(rounds):
             w, z, side, ev, info = state
