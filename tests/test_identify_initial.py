@@ -145,3 +145,26 @@ def test_partial_search_reuses_the_fixed_factorisation_exactly(model):
     assert abs(a["cost"] / b["cost"] - 1) < 1e-12
     np.testing.assert_allclose(a["grad"], b["grad"], rtol=0, atol=1e-12 * np.abs(b["grad"]).max())
     np.testing.assert_allclose(a["JtJ"], b["JtJ"], rtol=0, atol=1e-12 * np.abs(b["JtJ"]).max())
+
+
+@pytest.mark.parametrize(("model", "k"), [("complex", 0), ("complex", 2), ("real", 1)])
+def test_fft_trial_correlations_equal_the_products(model, k):
+    """The scan's correlations of on-grid trial poles (FFT) are the inner products of
+    their basis columns (3.15) with the data, to round-off; non-uniform lines are
+    detected (the scan then forms the products)."""
+    from sdctrl.identification.correlation import TrialCorrelations, uniform_grid
+    from sdctrl.identification.residues import basis
+
+    rng = np.random.default_rng(0)
+    freq = np.linspace(20, 60, 401)
+    s = 2j * np.pi * freq
+    Y = rng.standard_normal((802, 5))
+    Q = np.linalg.qr(rng.standard_normal((802, 7)))[0]
+    corr = TrialCorrelations(uniform_grid(freq), s, k, model, (Q, Y))
+    idx = np.arange(4, 397, 3)
+    sigma = 2 * np.pi * 4 * (freq[1] - freq[0])
+    G = stack(basis(-sigma + 1j * corr.omega(idx), s, k, model, (False, False)))
+    T, Gr = corr.products(sigma, idx)
+    np.testing.assert_allclose(T.T, Q.T @ G, rtol=0, atol=1e-12 * np.abs(Q.T @ G).max())
+    np.testing.assert_allclose(Gr, G.T @ Y, rtol=0, atol=1e-12 * np.abs(G.T @ Y).max())
+    assert uniform_grid(np.append(freq[:-1], freq[-1] + 1e-3)) is None

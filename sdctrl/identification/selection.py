@@ -28,7 +28,10 @@ from sdctrl.identification.noise import NoiseTest
 from sdctrl.identification.scan import ResidualScan
 from sdctrl.identification.search import search_poles
 
-__all__ = ["AutoSelection"]
+__all__ = ["PROBE_EVALS", "AutoSelection"]
+
+#: evaluations (varpro; iterations / 10 for the gradient optimiser) of a probe of new poles
+PROBE_EVALS = 40
 
 
 class AutoSelection:
@@ -75,16 +78,21 @@ class AutoSelection:
         side : ndarray of int
             0 in band, -1 below, +1 above.
         only : array_like of int, optional
-            Poles searched (the others fixed).
+            Poles searched (the others fixed): a probe of new poles, stopped after
+            :data:`PROBE_EVALS` evaluations (noise candidates wander towards a bound and
+            would use the whole budget; they are rejected all the same).
 
         Returns
         -------
         tuple
             ``(w, z, ev, info)``: the poles, their evaluation and the search info.
         """
+        max_iter = self.max_iter
+        if only is not None:        # a probe: true modes converge in ~10 evaluations,
+            max_iter = min(max_iter, PROBE_EVALS * (1 if self.optimizer == "varpro" else 10))
         w, z, info = search_poles(self.prob, w, z, side, self.fband, self.optimizer,
-                                  self.max_iter, self.tol, only)
-        if not info.get("converged", True):
+                                  max_iter, self.tol, only)
+        if only is None and not info.get("converged", True):
             self.log.append(("not converged", info.get("message", "")))
         x = np.concatenate([np.log(w), np.log(z)])
         ev = self.prob.evaluate(x)
