@@ -79,7 +79,18 @@ class TrialCorrelations:
         self._levels = {}
 
     def omega(self, idx: np.ndarray) -> np.ndarray:
-        """Imaginary parts (rad/s) of the trial poles on lines ``idx``."""
+        """Imaginary parts (rad/s) of the trial poles on lines ``idx``.
+
+        Parameters
+        ----------
+        idx : ndarray of int
+            Line indices.
+
+        Returns
+        -------
+        ndarray
+            ``w_0 + idx dw``.
+        """
         return self.w0 + self.dw * np.asarray(idx, float)
 
     def _correlations(self, sigma: float):
