@@ -168,3 +168,31 @@ def test_fft_trial_correlations_equal_the_products(model, k):
     np.testing.assert_allclose(T.T, Q.T @ G, rtol=0, atol=1e-12 * np.abs(Q.T @ G).max())
     np.testing.assert_allclose(Gr, G.T @ Y, rtol=0, atol=1e-12 * np.abs(G.T @ Y).max())
     assert uniform_grid(np.append(freq[:-1], freq[-1] + 1e-3)) is None
+
+
+def test_one_blas_thread_for_the_whole_call(monkeypatch):
+    """Compression, LSCF and final residues run in the call's one-thread context too,
+    and the caller's setting is restored."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from sdctrl.identification import fit
+
+    seen = []
+
+    def spy(name, fn):
+        def wrapped(*args, **kwargs):
+            seen.append((name, [i["num_threads"] for i in threadpool_info()
+                                if i["user_api"] == "blas"]))
+            return fn(*args, **kwargs)
+        monkeypatch.setattr(fit, name, wrapped)
+
+    for name in ("compressed_data", "lscf_candidates", "_final_model"):
+        spy(name, getattr(fit, name))
+    frf, _, _ = ten_mode(df=0.1)
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+        sd.identify(frf, band=BAND, progress=False, compress_rank=20)
+        after = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    assert after == before
+    assert {n for n, _ in seen} == {"compressed_data", "lscf_candidates", "_final_model"}
+    assert all(t == 1 for _, threads in seen for t in threads)
