@@ -32,7 +32,9 @@ sdypy-EMA (``pip install sdypy-ema``) is only needed here, not by sdctrl or its 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
 import os
 import re
 import subprocess
@@ -172,8 +174,8 @@ def fit_ema(case):
     approx = np.abs(case.lam) / (2 * np.pi)
     lam = []
     for a in range(case.H.shape[2]):             # EMA is single-reference
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")                 # and EMA's progress bars
             m = EMA.Model(frf=case.H[:, :, a].T, freq=case.freq, lower=band[0],
                           upper=band[1], pol_order_high=case.ema_order,
                           frf_form=case.ema_form)
