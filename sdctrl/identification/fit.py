@@ -185,9 +185,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         if V is not None:
             info["compression_residual"] = float(max(normH2 - float(np.sum(Y**2)), 0) / normH2)
         if auto:
-            w0, z0, side, pending = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max,
-                                               info)
-            _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
+            merged = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max, info)
+            if 2 * nf >= (npp + 2) * merged[0].size + sum(asym):   # else: the peaks only
+                w0, z0, side, pending = merged
+            else:
+                pending = np.zeros(w0.size, bool)
         messages = []
         opts = (fband, optimizer, max_iter, tol)
         bar = progress_bar(desc="identify", unit="eval", enabled=progress)
