@@ -61,7 +61,9 @@ class FEModel(ElementGroups):
     ------
     ValueError
         Non-square or mismatched matrices, non-symmetric matrices (relative tolerance
-        1e-8), a mass matrix that is not positive definite, NaN/inf, bad labels.
+        1e-8), a mass matrix that is not positive definite (checked here, at
+        construction: one symmetric-mode sparse ``L D L^T`` of M, the cost of one sparse
+        factorisation; diagonal M by its diagonal), NaN/inf, bad labels.
 
     Notes
     -----
