@@ -1,159 +1,53 @@
-"""The ``sdctrl`` command: ``sdctrl demo`` (the main job) and ``sdctrl info FILE``."""
+"""The ``sdctrl`` command line: ``demo``, ``identify``, ``info`` (arguments only; the jobs
+live in :mod:`sdctrl.story`)."""
 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import time
 
-import numpy as np
+__all__ = ["main"]
 
-__all__ = ["demo", "main"]
+_DESCRIPTION = """\
+sdctrl turns vibration tests (measured FRFs) and finite element models of lightly
+damped structures into control-ready python-control StateSpace models
+(E. Balmes, MIT PhD thesis, 1993)."""
 
+_EPILOG = """\
+examples:
+  sdctrl demo                          the whole story on the built-in testbed
+  sdctrl identify test.uff --band 8 60 the modes of your own test, with a report
+  sdctrl info test.uff                 what a UFF file or a saved model holds
 
-def _chain_model():
-    """Three masses on springs with a dashpot between masses 1 and 2 (non-proportional damping)."""
-    from sdctrl.modal import NormalModeModel
+Run 'sdctrl COMMAND --help' for the options of a command."""
 
-    m = np.array([1.0, 1.5, 0.8])
-    k = np.array([4.0e4, 3.0e4, 2.5e4])          # N/m, ground-1, 1-2, 2-3
-    M = np.diag(m)
-    K = np.array([[k[0] + k[1], -k[1], 0], [-k[1], k[1] + k[2], -k[2]], [0, -k[2], k[2]]])
-    C = 2e-5 * K + np.array([[0, 0, 0], [0, 6.0, -6.0], [0, -6.0, 6.0]])
-    from scipy.linalg import eigh
+_DEMO = """\
+Run the whole story on the built-in testbed (a truss carrying three plates, 246 DOFs,
+31 sensors x 6 shakers) and write a report:
 
-    w2, phi = eigh(K, M)
-    dofs = ["N1.x", "N2.x", "N3.x"]
-    b = np.eye(3)[:, [0, 2]]
-    return NormalModeModel(np.diag(w2), phi.T @ C @ phi, phi, phi.T @ b,
-                           sensors=dofs, actuators=["N1.x", "N3.x"], shapes=phi, dofs=dofs)
+  simulated test with noise -> identification (stabilisation diagram)
+  -> normal modes with non-proportional damping -> update of a deliberately wrong
+  FE model -> hybrid test/FE model -> D-strut placement and closed-loop RMS
+  -> structured uncertainty and a robust-stability margin
+  -> diagnosis of an undeclared effect planted in a second test.
 
+Each step prints one line with its time. The folder OUT receives report.html (one
+self-contained page: figures embedded, table of contents, every section's key numbers
+against the truth), report.md with figures/, summary.json, the models (read back with
+sdctrl.load) and the two simulated tests as UFF files. Takes about a minute.
+Exit status: 0 when every step ran, 1 when one failed (the report says why)."""
 
-def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bool = False) -> str:
-    """Run the demonstration job and write its report; return the report path.
+_IDENTIFY = """\
+Identify the modes of your own test: no initial poles are needed. Prints a table of
+the modes and writes OUT/report.html (stabilisation diagram, test vs identified model,
+modes table, complex residues; the normal modes and their full damping matrix when the
+file declares collocated sensor/actuator pairs), report.md, summary.json and the models
+identified.npz and normal_modes.npz (read back with sdctrl.load).
 
-    Builds the built-in model, synthesises its measured FRFs (with noise), identifies
-    complex modes from them with no initial guess (chapter III), turns them into normal
-    modes with a full damping matrix (3.3), compares poles and damping matrix with the
-    truth, converts the identified model to a python-control StateSpace and checks it,
-    and writes ``report.md`` with a Bode plot PNG (test, truth, identified model) to the
-    folder ``out``.
+DATA is a UFF file of FRFs (dataset 58, .uff or .unv) or an FRF saved with sdctrl.save
+(.npz)."""
 
-    Parameters
-    ----------
-    out : str
-        Output folder (created).
-    noise : float
-        Relative complex Gaussian noise added to the synthetic FRFs.
-    seed : int
-        Seed of the noise.
-    quiet : bool
-        Do not print progress lines.
-
-    Returns
-    -------
-    str
-        Path of the markdown report.
-    """
-    from sdctrl.frf import FRF
-    from sdctrl.plot import bode
-    from sdctrl.report import markdown_table, modes_table
-
-    def say(msg):
-        if not quiet:
-            print(msg, flush=True)
-
-    os.makedirs(out, exist_ok=True)
-    t0 = time.perf_counter()
-    model = _chain_model()
-    say(f"model: {model.n} modes, {model.ns} sensors, {model.na} actuators")
-    freq = np.linspace(2.0, 80.0, 1200)
-    exact = model.frf(freq, "acceleration")
-    rng = np.random.default_rng(seed)
-    # multiplicative noise plus a floor 60 dB below each FRF's peak
-    scale = noise * np.abs(exact.H) + 1e-3 * np.abs(exact.H).max(axis=0, keepdims=True)
-    H = exact.H + scale * (rng.standard_normal(exact.H.shape)
-                           + 1j * rng.standard_normal(exact.H.shape)) / np.sqrt(2)
-    measured = FRF(freq, H, "acceleration", sensors=exact.sensors, actuators=exact.actuators,
-                   collocated=[(0, 0), (2, 1)])
-    import sdctrl as sd
-    from sdctrl.updating.costs import logls
-
-    t1 = time.perf_counter()
-    cm = sd.identify(measured, progress=False)
-    say(f"identified {cm.in_band.sum()} modes in the band ({time.perf_counter() - t1:.1f} s)")
-    nm = sd.normal_modes(cm, modes=cm.in_band)
-    true_p = model.poles
-    order = [int(np.argmin(np.abs(true_p - p))) for p in cm.poles[cm.in_band]]
-    sg = np.sign(np.sum(nm.cphi * model.cphi[:, order], axis=0))
-    gamma_err = (np.linalg.norm(nm.Gamma * np.outer(sg, sg) - model.Gamma[np.ix_(order, order)])
-                 / np.linalg.norm(model.Gamma))
-    identified = nm.frf(freq, "acceleration")
-    cost_id, cost_true = logls(identified, measured), logls(exact, measured)
-    say(f"normal modes: damping matrix error {gamma_err:.1e} (Frobenius, relative); logLS "
-        f"cost {cost_id:.2e} (the true model's: {cost_true:.2e})")
-    sys_ss = nm.to_statespace("acceleration")
-    from_ss = FRF.from_system(sys_ss, freq, "acceleration")
-    ss_err = np.abs(from_ss.H - identified.H).max() / np.abs(identified.H).max()
-    say(f"StateSpace vs identified model FRF: max relative error {ss_err:.1e}")
-    png = os.path.join(out, "bode.png")
-    bode([measured, exact, from_ss],
-         labels=[f"synthetic test ({100 * noise:g}% noise)", "true model",
-                 "identified StateSpace"], path=png, title="sdctrl demo: collocated FRFs")
-    gam_true = np.array2string(model.Gamma, precision=3, suppress_small=True)
-    gam_id = np.array2string(nm.Gamma * np.outer(sg, sg), precision=3, suppress_small=True)
-    rows = [(s, a) for s, a in measured.collocated]
-    lines = [
-        "# sdctrl demo report",
-        "",
-        (f"Built-in model: {model.n}-mode spring/mass chain with a discrete dashpot "
-        "(non-proportional damping), sensors "
-        f"{', '.join(model.sensors)}, actuators {', '.join(model.actuators)}."),
-        "",
-        "## Modes of the model",
-        "",
-        modes_table(model.poles),
-        "",
-        "## Synthetic test",
-        "",
-        f"{freq.size} lines, {freq[0]:g}-{freq[-1]:g} Hz, acceleration/force, "
-        f"{100 * noise:g}% multiplicative complex noise and a floor 60 dB below each peak "
-        f"(seed {seed}); collocated pairs "
-        + ", ".join(f"{measured.sensors[s]}/{measured.actuators[a]}" for s, a in rows) + ".",
-        "",
-        "## Identification (no initial poles)",
-        "",
-        "Complex modes by `sd.identify` (chapter III): identified against true poles.",
-        "",
-        modes_table(cm.poles[cm.in_band], true_p[order]),
-        "",
-        "## Normal modes and the damping matrix",
-        "",
-        ("`sd.normal_modes` (3.3): properness enforced by the small Riccati root (3.52), exact "
-        "transformation (3.44).  The dashpot couples the modes: `Gamma` is full."),
-        "",
-        f"True `Gamma` (rad/s):\n\n```\n{gam_true}\n```\n",
-        f"Identified `Gamma` (rad/s):\n\n```\n{gam_id}\n```\n",
-        (f"Relative error (Frobenius): {gamma_err:.1e}.  logLS cost (3.12) against the test: "
-        f"identified {cost_id:.2e}, true model {cost_true:.2e}."),
-        "",
-        "## State-space model of the identified normal modes",
-        "",
-        markdown_table(["states", "inputs", "outputs", "max rel. FRF error vs model"],
-                       [(sys_ss.nstates, ", ".join(sys_ss.input_labels),
-                         ", ".join(sys_ss.output_labels), f"{ss_err:.1e}")]),
-        "",
-        "![Bode plot](bode.png)",
-        "",
-        f"Run time: {time.perf_counter() - t0:.2f} s.",
-        "",
-    ]
-    path = os.path.join(out, "report.md")
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(lines))
-    say(f"report written to {path}")
-    return path
+_INFO = "Summarise an FRF file (.uff/.unv or .npz) or a model saved with sdctrl.save."
 
 
 def _info(path: str) -> int:
@@ -173,6 +67,35 @@ def _info(path: str) -> int:
     return 0
 
 
+def _parser() -> argparse.ArgumentParser:
+    from sdctrl import __version__
+
+    raw = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(prog="sdctrl", description=_DESCRIPTION, epilog=_EPILOG,
+                                     formatter_class=raw)
+    parser.add_argument("--version", action="version", version=f"sdctrl {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p = sub.add_parser("demo", help="run the whole story on the built-in testbed",
+                       description=_DEMO, formatter_class=raw)
+    p.add_argument("--out", default="sdctrl-demo", metavar="DIR",
+                   help="output folder (default: sdctrl-demo)")
+    p.add_argument("--noise", type=float, default=0.01,
+                   help="relative noise of the simulated tests (default: 0.01)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p = sub.add_parser("identify", help="identify the modes of your own test",
+                       description=_IDENTIFY, formatter_class=raw)
+    p.add_argument("path", metavar="DATA", help="FRF file: .uff/.unv (dataset 58) or .npz")
+    p.add_argument("--band", type=float, nargs=2, metavar=("F1", "F2"),
+                   help="frequency band in Hz (default: every line of the file)")
+    p.add_argument("--out", metavar="DIR",
+                   help="output folder (default: DATA without extension + '-sdctrl')")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p = sub.add_parser("info", help="summarise an FRF file or a saved model", description=_INFO)
+    p.add_argument("path", metavar="FILE")
+    return parser
+
+
 def main(argv=None) -> int:
     """Entry point of the ``sdctrl`` console script.
 
@@ -184,22 +107,18 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        Exit status.
+        Exit status: 0 success, 1 a step of a job failed, 2 bad input.
     """
-    parser = argparse.ArgumentParser(prog="sdctrl", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("demo", help="run the demonstration job and write a report")
-    p.add_argument("--out", default="sdctrl-demo", help="output folder (default: sdctrl-demo)")
-    p.add_argument("--noise", type=float, default=0.01, help="relative FRF noise (default 0.01)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
-    p = sub.add_parser("info", help="summarise an FRF file (.uff/.unv or .npz) or a saved model")
-    p.add_argument("path")
-    args = parser.parse_args(argv)
+    args = _parser().parse_args(argv)
     try:
         if args.command == "demo":
-            demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
-            return 0
+            from sdctrl.story import demo
+
+            return demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
+        if args.command == "identify":
+            from sdctrl.story import identify_report
+
+            return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet)
         return _info(args.path)
     except (ValueError, TypeError, OSError) as exc:
         print(f"sdctrl: error: {exc}", file=sys.stderr)

@@ -1,12 +1,27 @@
-"""Small markdown reports (the `sdctrl demo` job and model summaries)."""
+"""Reports people read: one self-contained HTML page (and its markdown copy).
+
+A :class:`Document` holds sections of paragraphs, tables, figures and *key numbers against
+the truth* (:class:`Check`); :meth:`Document.to_html` writes one HTML file with a table of
+contents, inline CSS and every figure embedded as a base64 PNG (it opens anywhere, e-mails
+as one attachment), :meth:`Document.to_markdown` a markdown copy whose figures are separate
+PNG files.  The ``sdctrl demo`` and ``sdctrl identify`` commands write their reports with it;
+the markdown reports of results (``UpdateResult.report()``, ...) are embedded with
+:meth:`Section.markdown`.
+"""
 
 from __future__ import annotations
+
+import base64
+import html
+import io
+import re
+from dataclasses import dataclass
 
 import numpy as np
 
 from sdctrl._util import markdown_table
 
-__all__ = ["markdown_table", "modes_table"]
+__all__ = ["Check", "Document", "Section", "markdown_table", "markdown_to_html", "modes_table"]
 
 
 def modes_table(poles, reference=None) -> str:
@@ -38,3 +53,406 @@ def modes_table(poles, reference=None) -> str:
             for j in range(poles.size)]
     return markdown_table(["mode", "f true (Hz)", "f model (Hz)", "rel. error", "zeta true (%)",
                            "zeta model (%)", "abs. error"], rows)
+
+
+# --- key numbers ----------------------------------------------------------------------------
+def _fmt(x) -> str:
+    if x is None:
+        return ""
+    if isinstance(x, bool | np.bool_):
+        return "yes" if x else "no"
+    if isinstance(x, int | np.integer):
+        return str(int(x))
+    if isinstance(x, float | np.floating):
+        v = float(x)
+        if not np.isfinite(v):
+            return str(v)
+        return f"{v:.4g}" if v == 0 or 1e-3 <= abs(v) < 1e5 else f"{v:.3e}"
+    return str(x)
+
+
+@dataclass(frozen=True, eq=False)
+class Check:
+    """A key number of a report against the truth it should match.
+
+    Parameters
+    ----------
+    quantity : str
+        What is measured (e.g. ``"max frequency error"``).
+    value : float, int, bool or str
+        The number obtained.
+    truth : float, int, bool or str, optional
+        The true or expected value (None: no truth is known, e.g. a user's own data).
+    error : float, optional
+        The error of ``value`` against ``truth`` in the unit ``error_unit``.
+    tolerance : float, optional
+        Largest acceptable ``|error|``; None when no tolerance is stated.
+    unit : str
+        Unit of ``value`` and ``truth``.
+    error_unit : str
+        Unit (or kind) of ``error``: ``"rel."``, ``"%"``, ``"abs."``...
+    """
+
+    quantity: str
+    value: object
+    truth: object = None
+    error: float | None = None
+    tolerance: float | None = None
+    unit: str = ""
+    error_unit: str = "rel."
+
+    @property
+    def passed(self) -> bool | None:
+        """``|error| <= tolerance``; for a value without error, ``value == truth``; None
+        when nothing is stated."""
+        if self.tolerance is not None and self.error is not None:
+            return bool(np.isfinite(self.error) and abs(self.error) <= self.tolerance)
+        if self.error is None and self.truth is not None and self.tolerance is None:
+            return self.value == self.truth
+        return None
+
+    def row(self) -> tuple[str, ...]:
+        """Formatted cells: quantity, value, truth, error, tolerance, verdict."""
+        unit = f" {self.unit}" if self.unit else ""
+        err = "" if self.error is None else f"{_fmt(self.error)} {self.error_unit}".strip()
+        tol = "" if self.tolerance is None else f"{_fmt(self.tolerance)} {self.error_unit}"
+        verdict = {True: "ok", False: "FAILED", None: ""}[self.passed]
+        truth = "" if self.truth is None else _fmt(self.truth) + unit
+        return (self.quantity, _fmt(self.value) + unit, truth, err, tol.strip(), verdict)
+
+
+_CHECK_HEADER = ("quantity", "obtained", "truth", "error", "tolerance", "")
+
+
+# --- markdown subset to HTML ----------------------------------------------------------------
+def _inline(text: str) -> str:
+    """Escape, then ``code``, **bold**, *emphasis*, [links](url) and images as their alt."""
+    parts = re.split(r"(`[^`]+`)", text)
+    out = []
+    for p in parts:
+        if len(p) > 1 and p.startswith("`") and p.endswith("`"):
+            out.append(f"<code>{html.escape(p[1:-1])}</code>")
+            continue
+        p = html.escape(p, quote=False)
+        p = re.sub(r"!\[([^\]]*)\]\([^)]*\)", r"<em>[figure: \1]</em>", p)
+        p = re.sub(r"\[([^\]]+)\]\(([^)\s]+)\)", r'<a href="\2">\1</a>', p)
+        p = re.sub(r"\*\*([^*]+)\*\*", r"<strong>\1</strong>", p)
+        p = re.sub(r"(?<![*\w])\*([^*\s][^*]*)\*(?![*\w])", r"<em>\1</em>", p)
+        out.append(p)
+    return "".join(out)
+
+
+def _split_row(line: str) -> list[str]:
+    cells = line.strip()
+    cells = cells.removeprefix("|")
+    cells = cells.removesuffix("|")
+    return [c.strip() for c in cells.split("|")]
+
+
+def _html_table(header, rows, align=None) -> str:
+    align = align or [""] * len(header)
+    th = "".join(f"<th{a}>{_inline(str(h))}</th>" for h, a in zip(header, align))
+    body = "".join("<tr>" + "".join(f"<td{a}>{_inline(str(c))}</td>"
+                                    for c, a in zip(r, align)) + "</tr>" for r in rows)
+    return f"<table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _table_block(lines: list[str]) -> str:
+    header = _split_row(lines[0])
+    align = []
+    for c in _split_row(lines[1]) if len(lines) > 1 else []:
+        right, left = c.endswith(":"), c.startswith(":")
+        align.append(' class="num"' if right and not left else "")
+    rows = [_split_row(x) for x in lines[2:]]
+    return _html_table(header, rows, align + [""] * (len(header) - len(align)))
+
+
+def markdown_to_html(text: str, heading_offset: int = 0) -> str:
+    """HTML of the markdown subset sdctrl's reports use.
+
+    Headings, paragraphs, ``-`` lists, pipe tables, fenced code, inline code, bold,
+    emphasis and links; raw HTML is escaped (a report never injects markup).
+
+    Parameters
+    ----------
+    text : str
+        Markdown.
+    heading_offset : int
+        Added to every heading level (``# x`` becomes ``<h3>`` with offset 2), so that an
+        embedded report nests under its section.
+
+    Returns
+    -------
+    str
+    """
+    lines = str(text).splitlines()
+    out, para, i = [], [], 0
+
+    def flush():
+        if para:
+            out.append(f"<p>{_inline(' '.join(para))}</p>")
+            para.clear()
+
+    while i < len(lines):
+        line = lines[i]
+        s = line.strip()
+        if s.startswith("```"):
+            flush()
+            j = i + 1
+            while j < len(lines) and not lines[j].strip().startswith("```"):
+                j += 1
+            out.append(f"<pre>{html.escape(chr(10).join(lines[i + 1:j]))}</pre>")
+            i = j + 1
+            continue
+        m = re.match(r"^(#{1,6})\s+(.*)$", s)
+        if m:
+            flush()
+            level = min(len(m.group(1)) + heading_offset, 6)
+            out.append(f"<h{level}>{_inline(m.group(2))}</h{level}>")
+        elif s.startswith("|"):
+            flush()
+            j = i
+            while j < len(lines) and lines[j].strip().startswith("|"):
+                j += 1
+            out.append(_table_block(lines[i:j]))
+            i = j
+            continue
+        elif s.startswith(("- ", "* ")):
+            flush()
+            items = []
+            while i < len(lines) and lines[i].strip().startswith(("- ", "* ")):
+                items.append(f"<li>{_inline(lines[i].strip()[2:])}</li>")
+                i += 1
+            out.append(f"<ul>{''.join(items)}</ul>")
+            continue
+        elif not s:
+            flush()
+        else:
+            para.append(s)
+        i += 1
+    flush()
+    return "\n".join(out)
+
+
+# --- the document ---------------------------------------------------------------------------
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;max-width:1100px;
+margin:2em auto;padding:0 1em;line-height:1.45;color:#222}
+h1{border-bottom:2px solid #345;padding-bottom:.2em}
+h2{border-bottom:1px solid #ccd;margin-top:2em;padding-bottom:.1em}
+code,pre{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.92em}
+code{background:#f3f3f6;padding:0 .2em;border-radius:3px}
+pre{background:#f6f6f9;padding:.6em;overflow-x:auto}
+table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
+th,td{border:1px solid #ccd;padding:.2em .55em;text-align:left}
+th{background:#eef0f6}td.num{text-align:right}
+td.ok{color:#176b1c;font-weight:bold}td.failed{color:#b00020;font-weight:bold}
+figure{margin:1em 0}figure img{max-width:100%;border:1px solid #eee}
+figcaption{font-size:.9em;color:#555}
+nav ol{columns:2}.note{color:#555;font-size:.92em}.error{color:#b00020}
+"""
+
+
+class Section:
+    """One section of a :class:`Document` (built by :meth:`Document.section`).
+
+    Parameters
+    ----------
+    key : str
+        Anchor (``id``) of the section, also the stem of its figure files.
+    title : str
+        Heading.
+    """
+
+    def __init__(self, key: str, title: str):
+        self.key, self.title = str(key), str(title)
+        self.blocks: list[tuple] = []
+        self.checks: list[Check] = []
+        self.figures: list[str] = []
+
+    def paragraph(self, text: str) -> Section:
+        """Add a paragraph (inline markdown: ``code``, **bold**, *emphasis*)."""
+        self.blocks.append(("p", str(text)))
+        return self
+
+    def markdown(self, text: str) -> Section:
+        """Embed a markdown fragment (e.g. ``result.report()``), headings nested."""
+        self.blocks.append(("md", str(text)))
+        return self
+
+    def table(self, header, rows, caption: str | None = None) -> Section:
+        """Add a table of already formatted cells."""
+        self.blocks.append(("table", tuple(map(str, header)),
+                            [tuple(map(_fmt, r)) for r in rows], caption))
+        return self
+
+    def key_numbers(self, checks) -> Section:
+        """Add the section's key numbers against the truth (a table of :class:`Check`)."""
+        checks = list(checks)
+        self.checks.extend(checks)
+        self.blocks.append(("checks", checks))
+        return self
+
+    def code(self, text: str) -> Section:
+        """Add preformatted text."""
+        self.blocks.append(("pre", str(text)))
+        return self
+
+    def error(self, text: str) -> Section:
+        """Add an error message (a failed step)."""
+        self.blocks.append(("error", str(text)))
+        return self
+
+    def figure(self, fig, caption: str, name: str | None = None, dpi: int = 96) -> Section:
+        """Add a matplotlib figure (rendered to PNG now, then closed)."""
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        from matplotlib import pyplot as plt
+
+        plt.close(fig)
+        name = name or f"{self.key}_{len(self.figures) + 1}"
+        self.figures.append(name)
+        self.blocks.append(("figure", name, buf.getvalue(), str(caption)))
+        return self
+
+    # rendering
+    def _html(self, level: int = 2) -> str:
+        head = html.escape(self.title)
+        out = [f'<section id="{html.escape(self.key)}"><h{level}>{head}</h{level}>']
+        for b in self.blocks:
+            kind = b[0]
+            if kind == "p":
+                out.append(f"<p>{_inline(b[1])}</p>")
+            elif kind == "md":
+                out.append(markdown_to_html(b[1], heading_offset=level))
+            elif kind == "pre":
+                out.append(f"<pre>{html.escape(b[1])}</pre>")
+            elif kind == "error":
+                out.append(f'<pre class="error">{html.escape(b[1])}</pre>')
+            elif kind == "table":
+                cap = f'<p class="note">{_inline(b[3])}</p>' if b[3] else ""
+                out.append(_html_table(b[1], b[2]) + cap)
+            elif kind == "checks":
+                out.append(_checks_html(b[1]))
+            elif kind == "figure":
+                data = base64.b64encode(b[2]).decode("ascii")
+                out.append(f'<figure id="fig-{html.escape(b[1])}"><img alt="{html.escape(b[1])}"'
+                           f' src="data:image/png;base64,{data}"><figcaption>{_inline(b[3])}'
+                           "</figcaption></figure>")
+        out.append("</section>")
+        return "\n".join(out)
+
+    def _markdown(self, figure_dir: str) -> tuple[str, dict]:
+        out, files = [f"## {self.title}", ""], {}
+        for b in self.blocks:
+            kind = b[0]
+            if kind == "p":
+                out += [b[1], ""]
+            elif kind == "md":
+                out += [_nest_headings(b[1]), ""]
+            elif kind in ("pre", "error"):
+                out += ["```", b[1], "```", ""]
+            elif kind == "table":
+                out += [markdown_table(b[1], b[2]), ""] + ([b[3], ""] if b[3] else [])
+            elif kind == "checks":
+                out += [markdown_table(_CHECK_HEADER, [c.row() for c in b[1]]), ""]
+            elif kind == "figure":
+                path = f"{figure_dir}/{b[1]}.png"
+                files[path] = b[2]
+                out += [f"![{b[3]}]({path})", "", f"*{b[3]}*", ""]
+        return "\n".join(out), files
+
+
+def _nest_headings(text: str) -> str:
+    """Markdown with every heading two levels deeper (an embedded report in a section)."""
+    out, fence = [], False
+    for line in text.splitlines():
+        if line.strip().startswith("```"):
+            fence = not fence
+        out.append("##" + line if not fence and re.match(r"^#{1,4}\s", line) else line)
+    return "\n".join(out)
+
+
+def _checks_html(checks) -> str:
+    head = "".join(f"<th>{h}</th>" for h in _CHECK_HEADER)
+    rows = []
+    for c in checks:
+        cells = c.row()
+        cls = {True: ' class="ok"', False: ' class="failed"', None: ""}[c.passed]
+        rows.append("<tr>" + "".join(f'<td{" class=num" if 0 < k < 5 else ""}>'
+                                     f"{_inline(x)}</td>" for k, x in enumerate(cells[:-1]))
+                    + f"<td{cls}>{cells[-1]}</td></tr>")
+    return (f'<table class="checks"><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}'
+            "</tbody></table>")
+
+
+class Document:
+    """A report: title, introduction, sections; rendered to HTML or markdown.
+
+    Parameters
+    ----------
+    title : str
+        Title of the report.
+    intro : str, optional
+        First paragraph (inline markdown).
+
+    Examples
+    --------
+    >>> doc = Document("demo")
+    >>> s = doc.section("id", "Identification").paragraph("12 modes").key_numbers(
+    ...     [Check("modes", 12, 12)])
+    >>> "<nav>" in doc.to_html() and doc.checks[0].passed
+    True
+    """
+
+    def __init__(self, title: str, intro: str | None = None):
+        self.title = str(title)
+        self.intro = intro
+        self.sections: list[Section] = []
+
+    def section(self, key: str, title: str) -> Section:
+        """Append a new section and return it."""
+        if any(s.key == key for s in self.sections):
+            raise ValueError(f"key: a section {key!r} already exists")
+        s = Section(key, title)
+        self.sections.append(s)
+        return s
+
+    @property
+    def checks(self) -> list[Check]:
+        """Every key number of every section, in order."""
+        return [c for s in self.sections for c in s.checks]
+
+    def to_html(self) -> str:
+        """The whole report as one self-contained HTML page."""
+        toc = "".join(f'<li><a href="#{html.escape(s.key)}">{html.escape(s.title)}</a></li>'
+                      for s in self.sections)
+        intro = f"<p>{_inline(self.intro)}</p>" if self.intro else ""
+        body = "\n".join(s._html() for s in self.sections)
+        return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+                f'<meta name="viewport" content="width=device-width, initial-scale=1">'
+                f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
+                f"<h1>{html.escape(self.title)}</h1>{intro}<nav><h2>Contents</h2><ol>{toc}"
+                f"</ol></nav>\n{body}\n</body></html>\n")
+
+    def to_markdown(self, figure_dir: str = "figures") -> tuple[str, dict[str, bytes]]:
+        """Markdown copy and its figures.
+
+        Parameters
+        ----------
+        figure_dir : str
+            Folder (relative to the markdown file) the figures are referenced in.
+
+        Returns
+        -------
+        (str, dict)
+            The markdown text and ``{relative path: PNG bytes}`` of its figures.
+        """
+        parts, files = [f"# {self.title}", ""] + ([self.intro, ""] if self.intro else []), {}
+        parts += ["Contents:", ""] + [f"{k + 1}. {s.title}" for k, s in enumerate(self.sections)]
+        parts.append("")
+        for s in self.sections:
+            text, f = s._markdown(figure_dir)
+            parts.append(text)
+            files.update(f)
+        return "\n".join(parts), files

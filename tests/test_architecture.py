@@ -49,9 +49,10 @@ ORDER = [
     "sdctrl.predictions", "sdctrl.hybridmodel", "sdctrl.testbeds", "sdctrl.closedloop",
     "sdctrl.mu_structure", "sdctrl.mu", "sdctrl.mu_sweep", "sdctrl.mu_lower", "sdctrl.robust",
     "sdctrl.placement", "sdctrl.testing",
-    "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
+    "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.story",
+    "sdctrl.cli",
 ]
-LAST = ("sdctrl.plot", "sdctrl.report", "sdctrl.cli")
+LAST = ("sdctrl.plot", "sdctrl.report", "sdctrl.story", "sdctrl.cli")
 
 
 def _modules():
