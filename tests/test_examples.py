@@ -1,15 +1,32 @@
-"""Examples and notebooks run in the test suite so that they never rot."""
+"""Examples, notebooks and the README's python blocks run in the test suite so that they
+never rot."""
 
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
-NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+
+#: examples and notebooks that call sd.diagnose (issue 12), not merged yet: expected to fail
+#: with "no attribute 'diagnose'" until it lands (then the strict xfail fails: the lead
+#: removes the entries when merging it)
+PENDING = {"diagnose_effect.py", "07_diagnosis.ipynb"}
+
+
+def _cases(paths):
+    marks = pytest.mark.xfail(raises=AttributeError, strict=True,
+                              reason="sd.diagnose (issue 12) not merged yet")
+    return [pytest.param(p, id=p.name, marks=marks if p.name in PENDING else ())
+            for p in paths]
+
+
+EXAMPLES = _cases(sorted((ROOT / "examples").glob("*.py")))
+NOTEBOOKS = _cases(sorted((ROOT / "notebooks").glob("*.ipynb")))
+NOT_RUN = "# not executed"
 
 
 def _env():
@@ -20,14 +37,22 @@ def _env():
     return env
 
 
-@pytest.mark.parametrize("script", EXAMPLES, ids=[p.name for p in EXAMPLES])
+def _missing_diagnose(text: str) -> None:
+    """Raise AttributeError when a run failed only because sd.diagnose does not exist."""
+    if "has no attribute 'diagnose'" in text:
+        raise AttributeError("module 'sdctrl' has no attribute 'diagnose'")
+
+
+@pytest.mark.parametrize("script", EXAMPLES)
 def test_example_runs(script, tmp_path):
     proc = subprocess.run([sys.executable, str(script), str(tmp_path)], check=False,
                           cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=600)
+    if proc.returncode:
+        _missing_diagnose(proc.stderr)
     assert proc.returncode == 0, f"{script.name} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
 
 
-@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+@pytest.mark.parametrize("notebook", NOTEBOOKS)
 def test_notebook_runs(notebook, tmp_path, monkeypatch):
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
@@ -36,24 +61,48 @@ def test_notebook_runs(notebook, tmp_path, monkeypatch):
     nb = nbformat.read(notebook, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})
-    client.execute()
+    try:
+        client.execute()
+    except nbclient.exceptions.CellExecutionError as exc:
+        _missing_diagnose(str(exc))
+        raise
 
 
-def test_cli_demo(tmp_path):
-    from sdctrl.cli import main
+def readme_blocks(text: str) -> list[str]:
+    """The python blocks of the README that run, in order.
 
-    out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--quiet"]) == 0
-    report = (out / "report.md").read_text()
-    assert "# sdctrl demo report" in report and (out / "bode.png").stat().st_size > 10_000
-    assert "![Bode plot](bode.png)" in report
-    # the identification section: the 3 true modes found from noisy data, no initial guess
-    sec = report.split("## Identification")[1].split("##")[0]
-    rows = [r.split("|") for r in sec.splitlines() if r.startswith("| ") and r[2].isdigit()]
-    assert len(rows) == 3
-    assert max(abs(float(r[4])) for r in rows) < 1e-4          # relative frequency error
-    assert max(abs(float(r[7])) for r in rows) < 1e-3          # absolute damping error
-    assert "Identified `Gamma`" in report
+    Rule: every fenced block opened with ```python is executed, in order, in one
+    namespace (a fresh interpreter, a temporary folder as working directory, the Agg
+    backend), except a block whose first line is a comment starting with
+    ``# not executed`` -- an illustrative block that needs the reader's own files.
+    """
+    blocks = re.findall(r"^```python\n(.*?)^```", text, re.DOTALL | re.MULTILINE)
+    return [b for b in blocks if not b.lstrip().startswith(NOT_RUN)]
+
+
+def test_readme_blocks_recognised():
+    text = (ROOT / "README.md").read_text()
+    run = readme_blocks(text)
+    assert len(run) >= 4 and "sd.identify(frf)" in run[0]
+    assert len(re.findall(r"^```python", text, re.MULTILINE)) == len(run) + 1   # one illustrative
+    assert readme_blocks("```python\n# not executed: x\nfoo()\n```\n") == []
+    assert readme_blocks("```python\nx = 1\n```\n```sh\nls\n```\n") == ["x = 1\n"]
+
+
+def test_readme_first_session_runs_as_written(tmp_path):
+    code = "\n".join(readme_blocks((ROOT / "README.md").read_text()))
+    script = tmp_path / "readme_session.py"
+    script.write_text(code)
+    proc = subprocess.run([sys.executable, str(script)], check=False, cwd=tmp_path, env=_env(),
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, f"README failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    for fig in ("stabilisation.png", "bode.png", "envelope.png"):
+        assert (tmp_path / fig).stat().st_size > 10_000
+    assert (tmp_path / "hybrid.npz").exists()
+    # the numbers the comments announce
+    assert "12 modes" in proc.stdout or "12 in band" in proc.stdout
+    m = re.search(r"UpdateResult\(links=([-\d.]+), plates=([-\d.]+)", proc.stdout)
+    assert m and abs(float(m.group(1)) - 1 / 3) < 0.01 and abs(float(m.group(2)) + 0.2) < 0.01
 
 
 def test_cli_console_script_and_info(tmp_path):
