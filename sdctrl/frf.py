@@ -413,12 +413,14 @@ def _check_excitation(U: np.ndarray, actuators) -> None:
     def name(a):
         return f"{a} ({actuators[a]!r})"
     Z = U - U.mean(axis=0)
-    norms = np.sqrt(np.sum(Z * Z, axis=0))
-    for a in np.flatnonzero(norms <= 1e-14 * np.abs(U).max(initial=0.0)):
+    size = np.abs(U).max(axis=0)
+    for a in np.flatnonzero(~(np.abs(Z).max(axis=0) > 1e-12 * size)):
         raise ValueError(f"u: input channel {name(a)} is constant (all zero once its mean is "
                          "removed): it excites nothing, the FRF of that actuator is undefined")
     if U.shape[1] > 1:
-        rho = np.abs((Z / norms).T @ (Z / norms))
+        Z = Z / np.abs(Z).max(axis=0)                # unit size: no under/overflow below
+        Z = Z / np.sqrt(np.sum(Z * Z, axis=0))
+        rho = np.abs(Z.T @ Z)
         i, j = np.triu_indices(U.shape[1], 1)
         dup = np.flatnonzero(rho[i, j] > 1 - 1e-10)
         if dup.size:
