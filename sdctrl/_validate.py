@@ -186,6 +186,15 @@ def check_seed(seed, name: str = "seed"):
     return check_int(seed, name, minimum=0)
 
 
+def check_info(info, name: str = "info") -> dict:
+    """A copy of a diagnostics mapping (``info`` of models and results)."""
+    from collections.abc import Mapping
+
+    if not isinstance(info, Mapping):
+        raise TypeError(f"{name} must be a dict, got {type(info).__name__}")
+    return dict(info)
+
+
 def check_label(x, name: str) -> str:
     """A non-empty string label."""
     if not isinstance(x, str | np.str_):

@@ -29,6 +29,7 @@ from sdctrl._validate import (
     as_array,
     check_finite_result,
     check_freq,
+    check_info,
     check_labels,
     check_quantity,
     check_scalar,
@@ -134,7 +135,7 @@ class NormalModeModel:
         sets(self, "omega_c", omega_c)
         sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
         sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
-        sets(self, "info", dict(self.info))
+        sets(self, "info", check_info(self.info))
 
     # --- display ------------------------------------------------------------------
     def __repr__(self) -> str:

@@ -206,6 +206,7 @@ CM_KINDS = {"poles": Arg(CPLX.but(negative=REFUSE, real=REFUSE, zero=REFUSE, boo
             "residues": CPLX, "E": OPT_REAL, "F": OPT_REAL, "sensors": LAB, "actuators": LAB,
             "collocated": COL}
 MODEL_K = obj_kind(("frf", lambda: FRF, REFUSE))
+INFO = obj_kind(optional=True).but(dict=OK, none=REFUSE)
 #: paths: an error may name the file rather than ``path``; OSError is a clean refusal too
 READ_PATH = Arg(path_kind(TMP, True), ("file",))
 NPZ_WRITE_PATH = Arg(path_kind(TMP, False, suffix=True), ("file",))
@@ -285,8 +286,9 @@ ENTRIES = [
     Entry("load", _call(sd.load), lambda: {"path": str(MODEL_PATH)},
           {"path": READ_PATH}, errors=FILE_ERRORS),
     # --- complex modes ------------------------------------------------------------------
-    Entry("ComplexModeModel", _call(sd.ComplexModeModel), cm_args,
-          {**CM_KINDS, "in_band": mask_kind(), "band": Arg(
+    Entry("ComplexModeModel", _call(sd.ComplexModeModel), _plus(cm_args, cost=0.1, info={}),
+          {**CM_KINDS, "in_band": mask_kind(), "info": INFO,
+           "cost": number(zero=OK, negative=ANY).but(nan=OK, inf=ANY), "band": Arg(
               band_kind().but(none=OK), ("band",))}, is_cm, weight=2),
     Entry("ComplexModeModel.frf", lambda a: _cm(a).frf(**a),
           _plus(cm_args, freq=FREQ.copy(), quantity="acceleration"),
@@ -329,9 +331,11 @@ ENTRIES = [
           is_nm),
     # --- normal modes -----------------------------------------------------------------
     Entry("NormalModeModel", _call(sd.NormalModeModel),
-          _plus(nm_args, F=None, omega_c=None),
+          _plus(nm_args, F=None, omega_c=None, shapes=np.ones((3, 2)), dofs=("a", "b", "c"),
+                info={"x": 1}),
           {**NM_KINDS, "F": Arg(OPT_REAL, (), np.full((2, 2), -1e-3)),
-           "omega_c": number(optional=True)},
+           "omega_c": number(optional=True), "shapes": OPT_REAL.but(none=ANY),
+           "dofs": Arg(LAB, ("shapes",)), "info": INFO},
           is_nm, weight=2),
     Entry("NormalModeModel.frf", lambda a: _nm(a).frf(**a),
           _plus(nm_args, freq=FREQ.copy(), quantity="acceleration"),

@@ -19,6 +19,7 @@ from sdctrl._validate import (
     check_collocated,
     check_finite_result,
     check_freq,
+    check_info,
     check_labels,
     check_quantity,
     check_scalar,
@@ -97,7 +98,7 @@ class ComplexModeModel:
         sets(self, "actuators", actuators)
         sets(self, "collocated", check_collocated(self.collocated, ns, na, "collocated",
                                                   sensors, actuators))
-        sets(self, "info", dict(self.info))
+        sets(self, "info", check_info(self.info))
 
     # --- display --------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -355,7 +356,7 @@ def _cost(cost) -> float:
     """A real cost (NaN: unknown)."""
     if isinstance(cost, float | np.floating) and np.isnan(cost):
         return float("nan")
-    return check_scalar(cost, "cost", allow_inf=True)
+    return check_scalar(cost, "cost", allow_inf=True)     # inf: no fit (e.g. overflow)
 
 
 def scale_residues(residues, pairs):
