@@ -140,6 +140,10 @@ def complex_residues(data, mode: int = 0, path: str | os.PathLike | None = None,
     sets = data if isinstance(data, list | tuple) else [data]
     if not sets:
         raise ValueError("data must hold at least one set of residues")
+    if actuator is not None and not any(getattr(x, "residues", None) is not None
+                                        for x in sets):
+        raise ValueError("actuator selects a column of a model's residues, but data holds no "
+                         "model (arrays are residues at one actuator already)")
     if isinstance(mode, bool) or not isinstance(mode, int | np.integer):
         raise TypeError(f"mode must be an integer index, got {mode!r}")
     got = [_residue_set(x, int(mode), actuator, scaled, f"data[{k}]")
