@@ -450,7 +450,8 @@ def as_statespace(sys, name: str = "sys"):
         raise ValueError(f"{name} must be a continuous-time system, got dt={G.dt}")
     for m in "ABCD":
         if not np.all(np.isfinite(np.asarray(getattr(G, m)))):
-            raise ValueError(f"{name} must have finite state-space matrices, {m} holds NaN/inf")
+            raise ValueError(f"{name} must have finite state-space matrices: {m} holds "
+                             "non-finite values (NaN/inf)")
     return G
 
 

@@ -54,7 +54,7 @@ def test_normal_mode_model_omega_c_field_refused():
 def test_rms_of_a_system_with_nan_feedthrough_is_refused():
     G = _nm(E=False).to_statespace()
     bad = control.ss(G.A, G.B, G.C, np.full(G.D.shape, np.nan))
-    with pytest.raises(ValueError, match="sys must have finite state-space matrices, D"):
+    with pytest.raises(ValueError, match="sys must have finite state-space matrices: D"):
         sd.rms(bad, (1.0, 50.0))
 
 
