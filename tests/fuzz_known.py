@@ -23,6 +23,7 @@ OWNER = {
     "NormalModeModel.modified": 17,
     "NormalModeModel.uncertain": 13,
     "NormalModeModel.with_feedback": 17,
+    "Parameter": 11,
     "UncertainModel.frf_envelope": 13,
     "UncertainModel.perturbed": 13,
     "UncertainModel.perturbed_matrices": 13,
@@ -30,11 +31,13 @@ OWNER = {
     "UncertainModel.sample": 13,
     "UncertainModel.sample_deltas": 13,
     "hybrid": 17,
+    "identifiability": 11,
     "identify": 14,
     "initial_poles": 14,
     "normal_modes": 14,
     "robust_stability": 13,
     "testbed_frf": 11,
+    "update": 11,
     "worst_case_gain": 13,
 }
 
@@ -67,6 +70,62 @@ KNOWN: dict = {
     ("FEModel.principal_static_modes", "rtol", "string"):
         "unnamed TypeError: can't multiply sequence by non-int of type 'numpy.float64'",
     ("FEModel.principal_static_modes", "rtol", "zero"): "accepted (returned a array)",
+    ("Parameter", "description", "array"): "accepted (returned a Parameter)",
+    ("Parameter", "description", "dict"): "accepted (returned a Parameter)",
+    ("Parameter", "description", "list"): "accepted (returned a Parameter)",
+    ("Parameter", "description", "number"): "accepted (returned a Parameter)",
+    ("Parameter", "scale", "array"):
+        "unnamed TypeError: only 0-dimensional arrays can be converted to Python scalars",
+    ("Parameter", "scale", "complex"):
+        "unnamed TypeError: float() argument must be a string or a real number, not 'complex'",
+    ("Parameter", "scale", "list"):
+        "unnamed TypeError: float() argument must be a string or a real number, not 'list'",
+    ("Parameter", "scale", "negative"): "accepted (returned a Parameter)",
+    ("Parameter", "scale", "string"): "accepted (returned a Parameter)",
+    ("identifiability", "H", "bool"):
+        "unnamed ValueError: cannot reshape array of size 0 into shape (0,2,newaxis)",
+    ("identifiability", "H", "huge"): "unnamed LinAlgError: Eigenvalues did not converge",
+    ("identifiability", "H", "real"):
+        "valid input refused: ValueError: cannot reshape array of size 0 into shape (0,2,newaxi",
+    ("identifiability", "corr_max", "array"):
+        "unnamed ValueError: The truth value of an array with more than one element is ambiguou",
+    ("identifiability", "corr_max", "complex"):
+        "unnamed TypeError: '<' not supported between instances of 'int' and 'complex'",
+    ("identifiability", "corr_max", "list"):
+        "unnamed TypeError: '<' not supported between instances of 'int' and 'list'",
+    ("identifiability", "corr_max", "none"):
+        "unnamed TypeError: '<' not supported between instances of 'int' and 'NoneType'",
+    ("identifiability", "corr_max", "string"):
+        "unnamed TypeError: '<' not supported between instances of 'int' and 'str'",
+    ("identifiability", "damping", "huge"): "ill-formed result: ",
+    ("identifiability", "fmax", "array"):
+        "unnamed TypeError: only 0-dimensional arrays can be converted to Python scalars",
+    ("identifiability", "fmax", "complex"):
+        "unnamed TypeError: float() argument must be a string or a real number, not 'complex'",
+    ("identifiability", "fmax", "huge"):
+        "unnamed ValueError: the reduced mass is not positive definite at p = [0.0]: narrow the",
+    ("identifiability", "fmax", "list"):
+        "unnamed TypeError: float() argument must be a string or a real number, not 'list'",
+    ("identifiability", "fmax", "string"): "accepted (returned a Identifiability)",
+    ("identifiability", "freq", "huge"):
+        "unnamed LinAlgError: singular matrix: resolution failed at diagonal 12",
+    ("identifiability", "freq", "tiny"):
+        "unnamed ValueError: cannot reshape array of size 0 into shape (0,2,newaxis)",
+    ("identifiability", "n_averages", "array"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "below"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "float"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "inf"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "nan"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "negative"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "none"): "accepted (returned a Identifiability)",
+    ("identifiability", "n_averages", "string"): "accepted (returned a Identifiability)",
+    ("identifiability", "noise", "array"):
+        "unnamed TypeError: only 0-dimensional arrays can be converted to Python scalars",
+    ("identifiability", "noise", "complex"):
+        "unnamed TypeError: float() argument must be a string or a real number, not 'complex'",
+    ("identifiability", "noise", "list"):
+        "unnamed TypeError: float() argument must be a string or a real number, not 'list'",
+    ("identifiability", "noise", "string"): "accepted (returned a Identifiability)",
     ("testbed_frf", "band", "huge"):
         "unnamed ValueError: the FRF overflows (NaN/inf from finite inputs): freq or the model'",
     ("testbed_frf", "noise", "array"):
@@ -86,6 +145,31 @@ KNOWN: dict = {
     ("testbed_frf", "seed", "nan"): "accepted (returned a FRF)",
     ("testbed_frf", "seed", "negative"): "accepted (returned a FRF)",
     ("testbed_frf", "seed", "string"): "accepted (returned a FRF)",
+    ("update", "H", "bool"):
+        "unnamed ValueError: cannot reshape array of size 0 into shape (0,2,newaxis)",
+    ("update", "H", "huge"): "unnamed LinAlgError: Eigenvalues did not converge",
+    ("update", "H", "real"):
+        "valid input refused: ValueError: cannot reshape array of size 0 into shape (0,2,newaxi",
+    ("update", "fmax", "array"):
+        "unnamed ValueError: The truth value of an array with more than one element is ambiguou",
+    ("update", "fmax", "complex"):
+        "unnamed TypeError: '>' not supported between instances of 'complex' and 'int'",
+    ("update", "fmax", "huge"):
+        "unnamed ValueError: the reduced mass is not positive definite at p = [0.0]: narrow the",
+    ("update", "fmax", "list"):
+        "unnamed TypeError: '>' not supported between instances of 'list' and 'int'",
+    ("update", "fmax", "string"):
+        "unnamed TypeError: ufunc 'isfinite' not supported for the input types, and the inputs ",
+    ("update", "freq", "huge"):
+        "unnamed LinAlgError: singular matrix: resolution failed at diagonal 12",
+    ("update", "freq", "tiny"):
+        "unnamed ValueError: cannot reshape array of size 0 into shape (0,2,newaxis)",
+    ("update", "max_nfev", "array"):
+        "unnamed TypeError: only 0-dimensional arrays can be converted to Python scalars",
+    ("update", "max_nfev", "float"): "accepted (returned a UpdateResult)",
+    ("update", "max_nfev", "inf"): "OverflowError: cannot convert float infinity to integer",
+    ("update", "max_nfev", "nan"): "unnamed ValueError: cannot convert float NaN to integer",
+    ("update", "max_nfev", "string"): "accepted (returned a UpdateResult)",
     # issue 13 (uncertainty.py, robust.py)
     ("NormalModeModel.uncertain", "dGamma", "complex"): "accepted (returned a UncertainModel)",
     ("NormalModeModel.uncertain", "dGamma", "dict"):
