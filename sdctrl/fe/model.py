@@ -116,7 +116,7 @@ class FEModel(ElementGroups):
                 raise TypeError("elements must be a sequence of (node_a, node_b) pairs")
             elem = []
             for e in elements:
-                if isinstance(e, str) or len(e) != 2:
+                if isinstance(e, str) or not isinstance(e, Sequence | np.ndarray) or len(e) != 2:
                     raise ValueError(f"elements must contain node-name pairs, got {e!r}")
                 a, b = str(e[0]), str(e[1])
                 if node_map is not None and (a not in node_map or b not in node_map):
