@@ -66,6 +66,10 @@ def test_notebook_runs(notebook, tmp_path, monkeypatch):
     except nbclient.exceptions.CellExecutionError as exc:
         _missing_diagnose(str(exc))
         raise
+    # progress bars in a notebook without ipywidgets: plain text, no "IProgress not found"
+    text = "\n".join(o.get("text", "") for c in nb.cells if c.cell_type == "code"
+                     for o in c.get("outputs", []) if o.get("output_type") == "stream")
+    assert "IProgress not found" not in text and "TqdmWarning" not in text
 
 
 def readme_blocks(text: str) -> list[str]:
