@@ -271,40 +271,127 @@ class Section:
         self.figures: list[str] = []
 
     def paragraph(self, text: str) -> Section:
-        """Add a paragraph (inline markdown: ``code``, **bold**, *emphasis*)."""
+        """Add a paragraph (inline markdown: ``code``, **bold**, *emphasis*).
+
+        Parameters
+        ----------
+        text : str
+            The paragraph.
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         self.blocks.append(("p", str(text)))
         return self
 
     def markdown(self, text: str) -> Section:
-        """Embed a markdown fragment (e.g. ``result.report()``), headings nested."""
+        """Embed a markdown fragment (e.g. ``result.report()``), headings nested.
+
+        Parameters
+        ----------
+        text : str
+            Markdown (headings, tables, lists, paragraphs).
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         self.blocks.append(("md", str(text)))
         return self
 
     def table(self, header, rows, caption: str | None = None) -> Section:
-        """Add a table of already formatted cells."""
+        """Add a table of already formatted cells.
+
+        Parameters
+        ----------
+        header : sequence of str
+            Column titles.
+        rows : sequence of sequence
+            Cells (numbers are formatted, the rest str()'d).
+        caption : str, optional
+            Caption under the table.
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         self.blocks.append(("table", tuple(map(str, header)),
                             [tuple(map(_fmt, r)) for r in rows], caption))
         return self
 
     def key_numbers(self, checks) -> Section:
-        """Add the section's key numbers against the truth (a table of :class:`Check`)."""
+        """Add the section's key numbers against the truth (a table of :class:`Check`).
+
+        Parameters
+        ----------
+        checks : iterable of Check
+            Quantities, values, truths and tolerances.
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         checks = list(checks)
         self.checks.extend(checks)
         self.blocks.append(("checks", checks))
         return self
 
     def code(self, text: str) -> Section:
-        """Add preformatted text."""
+        """Add preformatted text.
+
+        Parameters
+        ----------
+        text : str
+            Shown as is, in a monospace block.
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         self.blocks.append(("pre", str(text)))
         return self
 
     def error(self, text: str) -> Section:
-        """Add an error message (a failed step)."""
+        """Add an error message (a failed step).
+
+        Parameters
+        ----------
+        text : str
+            The message (and traceback).
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         self.blocks.append(("error", str(text)))
         return self
 
     def figure(self, fig, caption: str, name: str | None = None, dpi: int = 96) -> Section:
-        """Add a matplotlib figure (rendered to PNG now, then closed)."""
+        """Add a matplotlib figure (rendered to PNG now, then closed).
+
+        Parameters
+        ----------
+        fig : matplotlib.figure.Figure
+            The figure.
+        caption : str
+            Caption (inline markdown).
+        name : str, optional
+            Figure id (``fig-<name>`` anchor, file stem in the markdown copy).
+        dpi : int
+            Resolution of the PNG.
+
+        Returns
+        -------
+        Section
+            This section (calls chain).
+        """
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=dpi)
         from matplotlib import pyplot as plt
@@ -411,7 +498,20 @@ class Document:
         self.sections: list[Section] = []
 
     def section(self, key: str, title: str) -> Section:
-        """Append a new section and return it."""
+        """Append a new section and return it.
+
+        Parameters
+        ----------
+        key : str
+            Anchor (unique in the document).
+        title : str
+            Heading and table-of-contents entry.
+
+        Returns
+        -------
+        Section
+            The new, empty section.
+        """
         if any(s.key == key for s in self.sections):
             raise ValueError(f"key: a section {key!r} already exists")
         s = Section(key, title)

@@ -98,6 +98,7 @@ def test_html_report_is_self_contained_with_contents_and_figures(demo):
 
 
 def test_every_stated_tolerance_is_met(demo):
+    assert demo["proc"].returncode == 0, demo["proc"].stdout[-2000:]
     for key, step in demo["steps"].items():
         if key == "diagnosis":
             continue
@@ -226,3 +227,25 @@ def test_help_and_version_are_plain_text():
         for rst in ("``", ":func:", ":mod:", ":class:", ".. "):
             assert rst not in text, (args, rst)
     assert "sdctrl identify test.uff" in _sdctrl("--help").stdout
+
+
+def test_missing_diagnose_is_reported_as_not_available(monkeypatch):
+    """A version without sd.diagnose runs the rest of the demo and says so (not a failure)."""
+    import io
+
+    from sdctrl.report import Document
+    from sdctrl.story import commands
+    from sdctrl.story.runner import StepLog
+
+    monkeypatch.delitem(sd._EXPORTS, "diagnose", raising=False)
+    monkeypatch.delattr(sd, "diagnose", raising=False)
+    assert not hasattr(sd, "diagnose")
+    stream = io.StringIO()
+    log = StepLog(1, stream=stream)
+    assert commands._diagnosis(log, None, None) is None
+    assert stream.getvalue().startswith("[1/1] diagnosis of a second test: not available (")
+    assert "sdctrl.diagnose" in stream.getvalue()
+    assert [e.status for e in log.entries] == ["unavailable"] and log.failed == []
+    doc = Document("t", "intro")
+    commands._sections(doc, log, {})
+    assert "This step is not available: sdctrl.diagnose is not in this version" in doc.to_html()

@@ -22,7 +22,9 @@ __all__ = ["demo", "identify_report", "mode_lines"]
 
 def _failed_section(doc, entry) -> None:
     s = doc.section(entry.key, entry.title[:1].upper() + entry.title[1:])
-    if entry.status == "skipped":
+    if entry.status == "unavailable":
+        s.paragraph(f"This step is not available: {entry.message}.")
+    elif entry.status == "skipped":
         s.paragraph(f"This step was skipped: {entry.message}.")
     else:
         s.paragraph(f"This step failed after {entry.seconds:.1f} s.")
@@ -73,6 +75,18 @@ def _summary(log) -> dict:
     return {"sdctrl": __version__, "seconds": log.seconds, "steps": steps}
 
 
+def _diagnosis(log, test, upd):
+    """Step 8, or a "not available" line when this version has no ``sdctrl.diagnose``."""
+    import sdctrl
+
+    title = "diagnosis of a second test"
+    if not hasattr(sdctrl, "diagnose"):
+        log.unavailable("diagnosis", title, "sdctrl.diagnose is not in this version of sdctrl "
+                        f"({sdctrl.__version__})")
+        return None
+    return log.run("diagnosis", title, diagnose_retest, test, upd, needs=[upd])
+
+
 def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bool = False,
          progress: bool | None = None) -> int:
     """Run the whole story on the built-in testbed and write its report; return the status.
@@ -103,7 +117,9 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
     Returns
     -------
     int
-        0 when every step ran, 1 when one failed (the report says which and why).
+        0 when every step ran, 1 when one failed (the report says which and why); a step
+        whose function this version lacks (``sdctrl.diagnose``) is reported as not
+        available and is not a failure.
     """
     agg_backend()
     log = StepLog(8, quiet)
@@ -119,8 +135,7 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
                  progress=progress, needs=[hy])
     rb = log.run("robustness", "robust stability", robust_strut, hy, pl, upd,
                  progress=progress, needs=[pl])
-    dg = log.run("diagnosis", "diagnosis of a second test", diagnose_retest, test, upd,
-                 needs=[upd])
+    dg = _diagnosis(log, test, upd)
     t0 = time.perf_counter()
     doc = Document("sdctrl demo: from a vibration test to a robust, diagnosed model",
                    "Every step of sdctrl on the built-in testbed, whose truth is known: each "
@@ -141,14 +156,28 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
     summary["models"] = sorted(models)
     paths = write_outputs(doc, out, models, summary)
     failed = log.failed
-    status = "every step ran" if not failed else (
+    missing = [e.title for e in log.entries if e.status == "unavailable"]
+    status = ("every available step ran" if missing else "every step ran") if not failed else (
         f"{len(failed)} step(s) did not run: " + ", ".join(e.title for e in failed))
+    if missing:
+        status += "; not available in this version: " + ", ".join(missing)
     log.say(f"report: {paths['html']} ({status}; total {log.seconds:.1f} s)")
     return 1 if failed else 0
 
 
 def mode_lines(ident) -> list[str]:
-    """Terminal table of identified modes (frequency, damping, in band)."""
+    """Terminal table of identified modes (frequency, damping, in band).
+
+    Parameters
+    ----------
+    ident : Identification
+        Output of the identification step.
+
+    Returns
+    -------
+    list of str
+        One line per mode, after a header line.
+    """
     cm = ident.cm
     lines = [f"{'mode':>4} {'freq (Hz)':>10} {'damping (%)':>11}  in band"]
     for j, (f, z, ib) in enumerate(zip(cm.frequency, cm.damping, cm.in_band)):

@@ -161,7 +161,13 @@ class Diagnosed:
                             "parameters": dict(self.planted.parameters)}}
 
     def section(self, doc) -> None:
-        """Write the diagnosis section."""
+        """Write the diagnosis section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        """
         from sdctrl import plot
 
         d, frf = self.diagnosis, self.frf

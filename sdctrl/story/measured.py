@@ -150,7 +150,13 @@ class SimulatedTest:
                 "true_damping": -self.poles.real / np.abs(self.poles)}
 
     def section(self, doc) -> None:
-        """Write the report section."""
+        """Write the report section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        """
         from sdctrl import plot
 
         f, fe = self.frf, self.fe
@@ -274,7 +280,13 @@ class Identification:
         return out
 
     def section(self, doc) -> None:
-        """Write the identification section (stabilisation, overlay, table, residues)."""
+        """Write the identification section (stabilisation, overlay, table, residues).
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        """
         from sdctrl import plot
 
         cm, frf = self.cm, self.frf
@@ -449,7 +461,13 @@ class NormalModes:
         return out
 
     def section(self, doc) -> None:
-        """Write the normal-modes section."""
+        """Write the normal-modes section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        """
         from sdctrl import plot
         from sdctrl.report import markdown_table
 

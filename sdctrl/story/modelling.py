@@ -110,7 +110,15 @@ class Update:
                 "max_freq_error_after": a}
 
     def section(self, doc, frf) -> None:
-        """Write the FE-update section."""
+        """Write the FE-update section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        frf : FRF
+            The test (for the before/after overlay).
+        """
         from sdctrl import plot
 
         r = self.result
@@ -214,7 +222,15 @@ class Hybrid:
                 "untested_logls": dict(self.untested)}
 
     def section(self, doc, fe) -> None:
-        """Write the hybrid section."""
+        """Write the hybrid section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        fe : FEModel
+            The updated FE model (geometry of the mode shapes).
+        """
         from sdctrl import plot
 
         h = self.model
@@ -325,7 +341,15 @@ class Placement:
         return {"bar": list(self.bar), "kv": KV, "rms_reduction": p, "true_rms_reduction": t}
 
     def section(self, doc, hybrid) -> None:
-        """Write the placement section."""
+        """Write the placement section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        hybrid : NormalModeModel
+            The hybrid model the strut is closed on.
+        """
         from sdctrl import plot
 
         s = doc.section("placement", "Where to put a D-strut: placement and closed-loop RMS")

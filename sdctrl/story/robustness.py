@@ -78,7 +78,13 @@ class Robustness:
                 "abscissa_at_delta": dict(self.abscissa), "samples": list(self.samples)}
 
     def section(self, doc) -> None:
-        """Write the robustness section."""
+        """Write the robustness section.
+
+        Parameters
+        ----------
+        doc : sdctrl.report.Document
+            The report the section is appended to.
+        """
         from matplotlib.figure import Figure
 
         r = self.result

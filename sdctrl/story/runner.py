@@ -33,14 +33,14 @@ class Entry:
         Short name (section anchor, ``summary.json`` key).
     title : str
         Title printed and used as section heading.
-    status : {"ok", "failed", "skipped"}
-        Outcome.
+    status : {"ok", "failed", "skipped", "unavailable"}
+        Outcome (``unavailable``: the function the step needs is not in this version).
     seconds : float
         Wall time of the step.
     record : object
         The step's result record (None unless ``status == "ok"``).
     message : str
-        Error message (failed), reason (skipped), else ``""``.
+        Error message (failed), reason (skipped, unavailable), else ``""``.
     warnings : list of str
         Warnings the step raised.
     trace : str
@@ -83,7 +83,13 @@ class StepLog:
         self.t0 = time.perf_counter()
 
     def say(self, text: str) -> None:
-        """Print a line (unless quiet)."""
+        """Print a line (unless quiet).
+
+        Parameters
+        ----------
+        text : str
+            The line.
+        """
         if not self.quiet:
             print(text, file=self.stream or sys.stdout, flush=True)
 
@@ -138,10 +144,26 @@ class StepLog:
             self.say(f"      warning: {_one_line(w)}")
         return record
 
+    def unavailable(self, key: str, title: str, reason: str) -> None:
+        """Record step ``key`` as not available in this version (not a failure).
+
+        Parameters
+        ----------
+        key : str
+            Step name.
+        title : str
+            Printed title.
+        reason : str
+            What is missing, printed and written in the report.
+        """
+        k = len(self.entries) + 1
+        self.entries.append(Entry(key, title, "unavailable", message=reason))
+        self.say(f"[{k}/{self.total}] {title}: not available ({reason})")
+
     @property
     def failed(self) -> list[Entry]:
-        """Entries that failed or were skipped."""
-        return [e for e in self.entries if e.status != "ok"]
+        """Entries that failed or were skipped (an unavailable step is neither)."""
+        return [e for e in self.entries if e.status in ("failed", "skipped")]
 
     @property
     def seconds(self) -> float:
