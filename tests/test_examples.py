@@ -126,3 +126,26 @@ def test_cli_console_script_and_info(tmp_path):
     bad = subprocess.run(cmd + ["info", str(tmp_path / "missing.uff")], check=False,
                          capture_output=True, text=True, env=_env(), timeout=120)
     assert bad.returncode == 2 and "does not exist" in bad.stderr
+
+
+def test_readme_lists_every_example_and_notebook():
+    text = (ROOT / "README.md").read_text()
+    named = set(re.findall(r"`(?:\w+/)?([\w.]+\.(?:py|ipynb))`", text))
+    files = {p.name for p in (ROOT / "examples").glob("*.py")}
+    files |= {p.name for p in (ROOT / "notebooks").glob("*.ipynb")}
+    assert files <= named, files - named                 # each one is introduced
+    known = files | {p.name for d in ("sdctrl", "tests", "benchmarks", ".ci")
+                     for p in (ROOT / d).rglob("*")}
+    assert named <= known, named - known                 # no stale name
+
+
+def test_readme_opens_with_the_two_commands_ci_runs():
+    """.ci/run executes the first ```sh block: line 1 installs and runs the demo, line 2
+    installs the test extra and runs the suite."""
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"^```sh\n(.*?)^```", text, re.DOTALL | re.MULTILINE).group(1)
+    lines = block.splitlines()
+    assert len(lines) == 2 and all(x.strip() for x in lines)
+    assert "pip install ." in lines[0] and lines[0].rstrip().endswith("sdctrl demo")
+    assert '".[test]"' in lines[1] and "pytest" in lines[1]
+    assert text.index("```sh") < text.index("```python")
