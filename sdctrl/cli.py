@@ -67,32 +67,65 @@ def _info(path: str) -> int:
     return 0
 
 
-def _parser() -> argparse.ArgumentParser:
-    from sdctrl import __version__
-
-    raw = argparse.RawDescriptionHelpFormatter
-    parser = argparse.ArgumentParser(prog="sdctrl", description=_DESCRIPTION, epilog=_EPILOG,
-                                     formatter_class=raw)
-    parser.add_argument("--version", action="version", version=f"sdctrl {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+# --- one pair of functions per command: its arguments, its job ------------------------------
+def _demo_args(sub) -> None:
     p = sub.add_parser("demo", help="run the whole story on the built-in testbed",
-                       description=_DEMO, formatter_class=raw)
+                       description=_DEMO, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", default="sdctrl-demo", metavar="DIR",
                    help="output folder (default: sdctrl-demo)")
     p.add_argument("--noise", type=float, default=0.01,
                    help="relative noise of the simulated tests (default: 0.01)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def _demo_run(args) -> int:
+    from sdctrl.story import demo
+
+    return demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
+
+
+def _identify_args(sub) -> None:
     p = sub.add_parser("identify", help="identify the modes of your own test",
-                       description=_IDENTIFY, formatter_class=raw)
+                       description=_IDENTIFY,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("path", metavar="DATA", help="FRF file: .uff/.unv (dataset 58) or .npz")
     p.add_argument("--band", type=float, nargs=2, metavar=("F1", "F2"),
                    help="frequency band in Hz (default: every line of the file)")
     p.add_argument("--out", metavar="DIR",
                    help="output folder (default: DATA without extension + '-sdctrl')")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def _identify_run(args) -> int:
+    from sdctrl.story import identify_report
+
+    return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet)
+
+
+def _info_args(sub) -> None:
     p = sub.add_parser("info", help="summarise an FRF file or a saved model", description=_INFO)
     p.add_argument("path", metavar="FILE")
+
+
+def _info_run(args) -> int:
+    return _info(args.path)
+
+
+#: command name -> (add its arguments to the subparsers, run it); help lists them in order
+COMMANDS = {"demo": (_demo_args, _demo_run), "identify": (_identify_args, _identify_run),
+            "info": (_info_args, _info_run)}
+
+
+def _parser() -> argparse.ArgumentParser:
+    from sdctrl import __version__
+
+    parser = argparse.ArgumentParser(prog="sdctrl", description=_DESCRIPTION, epilog=_EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"sdctrl {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add_arguments, _ in COMMANDS.values():
+        add_arguments(sub)
     return parser
 
 
@@ -111,15 +144,7 @@ def main(argv=None) -> int:
     """
     args = _parser().parse_args(argv)
     try:
-        if args.command == "demo":
-            from sdctrl.story import demo
-
-            return demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
-        if args.command == "identify":
-            from sdctrl.story import identify_report
-
-            return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet)
-        return _info(args.path)
+        return COMMANDS[args.command][1](args)
     except (ValueError, TypeError, OSError) as exc:
         print(f"sdctrl: error: {exc}", file=sys.stderr)
         return 2
