@@ -61,7 +61,9 @@ class FEModel(ElementGroups):
     ------
     ValueError
         Non-square or mismatched matrices, non-symmetric matrices (relative tolerance
-        1e-8), a mass matrix that is not positive definite, NaN/inf, bad labels.
+        1e-8), a mass matrix that is not positive definite (checked here, at
+        construction: one symmetric-mode sparse ``L D L^T`` of M, the cost of one sparse
+        factorisation; diagonal M by its diagonal), NaN/inf, bad labels.
 
     Notes
     -----
@@ -114,7 +116,7 @@ class FEModel(ElementGroups):
                 raise TypeError("elements must be a sequence of (node_a, node_b) pairs")
             elem = []
             for e in elements:
-                if isinstance(e, str) or len(e) != 2:
+                if isinstance(e, str) or not isinstance(e, Sequence | np.ndarray) or len(e) != 2:
                     raise ValueError(f"elements must contain node-name pairs, got {e!r}")
                 a, b = str(e[0]), str(e[1])
                 if node_map is not None and (a not in node_map or b not in node_map):

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sdctrl._validate import as_array
+from sdctrl._validate import as_array, check_int
 from sdctrl.plot._figure import figure, finish
 
 if TYPE_CHECKING:
@@ -177,8 +177,7 @@ def cost_map(x, y=None, cost=None, path: str | os.PathLike | None = None,
     ok = np.isfinite(C)
     if not ok.any() or np.isinf(C).any():
         raise ValueError("cost must contain finite values (NaN marks missing points, no inf)")
-    if not isinstance(levels, int | np.integer) or levels < 2:
-        raise ValueError(f"levels must be an integer >= 2, got {levels!r}")
+    levels = check_int(levels, "levels", minimum=2, maximum=1000)
     pos = bool(np.all(C[ok] > 0))
     if log is None:
         log = pos and C[ok].max() > 100 * C[ok].min()
@@ -186,7 +185,7 @@ def cost_map(x, y=None, cost=None, path: str | os.PathLike | None = None,
         raise ValueError("log=True needs a positive cost")
     Z = np.log10(C) if log else C
     i, j = np.unravel_index(np.nanargmin(C), C.shape)
-    opt = (X[i], Y[j]) if optimum is None else tuple(float(v) for v in optimum)
+    opt = (X[i], Y[j]) if optimum is None else tuple(as_array(optimum, "optimum", shape=(2,)))
     fig = figure(7.0, 5.5)
     ax = fig.add_subplot(1, 1, 1)
     cs = ax.contourf(X, Y, np.ma.masked_invalid(Z).T, levels=int(levels), cmap="viridis_r")
