@@ -231,15 +231,16 @@ def fit_free_mode(placed, H) -> dict | None:
 
 
 def _coupled_pairs(Omega, Gamma, fmin, fmax):
-    """Mode pairs (i < j), one of them in the band, closer than COUPLING_BANDWIDTHS
-    half-power bandwidths ``Gamma_jj`` (the pairs that damping coupling can mix)."""
+    """Mode pairs (i < j), both in the band, closer than COUPLING_BANDWIDTHS half-power
+    bandwidths ``Gamma_jj`` (the pairs that damping coupling can mix; static correction
+    modes far above the band, heavily damped, are left out)."""
     w = np.sqrt(np.clip(np.diag(Omega), 0, None))
     g = np.maximum(np.abs(np.diag(Gamma)), 1e-4 * w)
     inb = (w >= 2 * np.pi * fmin * 0.95) & (w <= 2 * np.pi * fmax * 1.05) & (w > 0)
     out = []
     for i in range(w.size):
         for j in range(i + 1, w.size):
-            if (inb[i] or inb[j]) and w[i] > 0 and w[j] > 0 and \
+            if inb[i] and inb[j] and w[i] > 0 and w[j] > 0 and \
                     abs(w[i] - w[j]) <= COUPLING_BANDWIDTHS * max(g[i], g[j]):
                 out.append((i, j))
     return out
@@ -292,7 +293,10 @@ def fit_nonproportional(placed, model, rows, cols) -> dict | None:
         Jm = np.array(cols_).T
         Jr = np.vstack([Jm.real, Jm.imag])
         rr = np.r_[r.real, r.imag]
-        step = np.linalg.lstsq(Jr, -rr, rcond=None)[0]
+        # normal equations: the Jacobian is tall (2 x lines x channels) and narrow
+        JtJ = Jr.T @ Jr
+        step = np.linalg.lstsq(JtJ + 1e-12 * np.trace(JtJ) / JtJ.shape[0] * np.eye(JtJ.shape[0]),
+                               -(Jr.T @ rr), rcond=None)[0]
         for _half in range(8):
             Gt = G.copy()
             for (i, j), v in zip(pairs, x + step):
