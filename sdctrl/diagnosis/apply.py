@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DelayedModel", "QS_FACTOR", "apply_effect"]
+__all__ = ["QS_FACTOR", "DelayedModel", "apply_effect"]
 
 #: quasi-static correction modes sit at this many times the band top
 QS_FACTOR = 30.0

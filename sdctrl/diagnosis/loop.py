@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 
+from sdctrl._validate import check_int, check_scalar
 from sdctrl.diagnosis.apply import DelayedModel, apply_effect
 from sdctrl.diagnosis.candidates import candidate_groups
 from sdctrl.diagnosis.effects import (
@@ -33,6 +34,8 @@ MIN_GAIN = 0.2
 MIN_SHARE = 0.01
 #: costs below this are round-off: the model reproduces the data
 ROUNDOFF = 1e-24
+#: at most this many steps, whatever ``max_effects``
+MAX_STEPS = 50
 #: runner-up candidates kept per step
 N_RUNNERS = 8
 
@@ -53,12 +56,9 @@ def _check(model, frf, fe, executor, max_effects, noise, reach):
         raise TypeError(f"fe must be an sdctrl.FEModel or None, got {type(fe).__name__}")
     if executor is not None and not callable(getattr(executor, "map", None)):
         raise TypeError("executor must be a concurrent.futures.Executor (with .map) or None")
-    if isinstance(max_effects, bool) or not isinstance(max_effects, int | np.integer) \
-            or max_effects < 0:
-        raise ValueError(f"max_effects must be a non-negative integer, got {max_effects!r}")
-    for name, v in (("noise", noise), ("reach", reach)):
-        if v is not None and not (np.isfinite(float(v)) and float(v) > 0):
-            raise ValueError(f"{name} must be a positive number or None, got {v!r}")
+    check_int(max_effects, "max_effects", minimum=0)
+    check_scalar(noise, "noise", nonneg=True, optional=True)
+    check_scalar(reach, "reach", positive=True, optional=True, allow_inf=True)
     physical = fe is not None and isinstance(inner, NormalModeModel)
     if physical and (inner.shapes is None or fe.nodes is None):
         warnings.warn("diagnose: physical candidates (dampers, springs, masses, resonators) need "
@@ -184,7 +184,7 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     cand = candidate_groups(fe, reach) if physical else None
     N = placed0.n_entries
     current, effects, steps, times = model, [], [], []
-    for _step in range(int(max_effects)):
+    for _step in range(min(int(max_effects), MAX_STEPS)):
         if J <= ROUNDOFF:
             break
         ts = time.perf_counter()

@@ -203,7 +203,7 @@ class ResidualMap:
         """
         e = self.per_line
         tot = e.sum()
-        k = max(1, int(round(fraction * e.size)))
+        k = max(1, round(fraction * e.size))
         if tot <= 0:
             return 0.0, 0.0
         return float(e[:k].sum() / tot), float(e[-k:].sum() / tot)

@@ -216,25 +216,6 @@ class Diagnosis:
         return residual_map(placed.freq, placed.response(model), placed.Hd,
                             placed.sensors, placed.actuators)
 
-    def plot(self, path=None, channel=None):
-        """Before/after FRFs at the worst channel and the residual maps
-        (:func:`sdctrl.plot.residual_map`).
-
-        Parameters
-        ----------
-        path : str or os.PathLike, optional
-            Save the figure there (and close it).
-        channel : (str, str), optional
-            ``(sensor, actuator)`` to show instead of the worst channel.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from sdctrl.plot import residual_map
-
-        return residual_map(self, path=path, channel=channel)
-
     def table(self) -> str:
         """Markdown table of the effects added.
 
@@ -255,7 +236,7 @@ class Diagnosis:
         Parameters
         ----------
         figure : str, optional
-            Path of a figure (e.g. written by :meth:`plot`) to reference in the report.
+            Path of a figure (e.g. written by :func:`sdctrl.plot.diagnosis`) to reference.
 
         Returns
         -------
@@ -271,8 +252,8 @@ class Diagnosis:
         if self.effects:
             lines += ["## Effects added", "", self.table(), ""]
         else:
-            lines += ["No effect helps enough: the model matches the data within its noise "
-                      "(or no candidate is significant).", ""]
+            lines += [("No effect helps enough: the model matches the data within its noise "
+                      "(or no candidate is significant)."), ""]
         if self.frf is not None and self.initial is not None:
             lines += ["## Where the residual was", ""]
             lines += [f"- {t}" for t in self.residual(after=False).findings()] + [""]
