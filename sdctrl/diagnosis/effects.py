@@ -283,20 +283,18 @@ def fit_nonproportional(placed, model, rows, cols) -> dict | None:
     H, Xy, Xu = response(G)
     J0 = J = cost(H, Hd)
     x = np.zeros(len(pairs))
+    I, K = (np.array(v) for v in zip(*pairs))
     for _ in range(GN_STEPS):
         r = complex_residual(H, Hd).reshape(-1)
-        cols_ = []
-        for i, j in pairs:
-            d = -s[:, None, None] * (Xy[:, :, i:i + 1] * Xu[:, j:j + 1, :]
-                                     + Xy[:, :, j:j + 1] * Xu[:, i:i + 1, :])
-            cols_.append((d / H).reshape(-1))
-        Jm = np.array(cols_).T
-        Jr = np.vstack([Jm.real, Jm.imag])
-        rr = np.r_[r.real, r.imag]
-        # normal equations: the Jacobian is tall (2 x lines x channels) and narrow
-        JtJ = Jr.T @ Jr
-        step = np.linalg.lstsq(JtJ + 1e-12 * np.trace(JtJ) / JtJ.shape[0] * np.eye(JtJ.shape[0]),
-                               -(Jr.T @ rr), rcond=None)[0]
+        # dH/dGamma_ij / H for every pair at once, (nf, ns, na, p)
+        sH = (-s[:, None, None] / H)[..., None]
+        Jm = (np.einsum("fsp,fpa->fsap", Xy[:, :, I], Xu[:, K, :])
+              + np.einsum("fsp,fpa->fsap", Xy[:, :, K], Xu[:, I, :])) * sH
+        Jm = Jm.reshape(-1, len(pairs))
+        # normal equations: the Jacobian is tall (lines x channels) and narrow
+        JtJ = (Jm.conj().T @ Jm).real
+        JtJ += 1e-12 * np.trace(JtJ) / JtJ.shape[0] * np.eye(JtJ.shape[0])
+        step = np.linalg.lstsq(JtJ, -(Jm.conj().T @ r).real, rcond=None)[0]
         for _half in range(8):
             Gt = G.copy()
             for (i, j), v in zip(pairs, x + step):
