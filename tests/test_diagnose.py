@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import functools
+import re
 
 import numpy as np
 import pytest
@@ -188,7 +189,7 @@ def test_effect_found_with_one_percent_noise(name):
 @pytest.mark.parametrize("case", [
     ("mass_change", "N5", 0.1), ("mass_change", "N26", 2.0),
     ("stiffness_change", ("N10", "N14"), 0.2), ("stiffness_change", ("N21", "N28"), 0.9),
-    ("added_damper", ("N3", "N12"), 50.0),
+    ("added_damper", ("N22", "N27"), 80.0), ("added_damper", ("N14", "N45"), 20.0),
 ], ids=lambda c: f"{c[0]}-{'-'.join(np.atleast_1d(c[1]))}-{c[2]}")
 def test_sizes_and_locations(case):
     d = diagnosis(case, max_effects=1)
@@ -241,7 +242,8 @@ def test_report_and_inputs_untouched():
     d = diagnosis(case)
     assert np.array_equal(data.H, H0)
     text = d.report()
-    for want in ("# Diagnosis", "mass_change", "N20", "dm = 0.5", "error before",
+    assert re.search(r"\| mass_change \| N20 \| dm = 0\.(499|500)", text)
+    for want in ("# Diagnosis", "mass_change", "N20", "error before",
                  "Step 1: candidates", "Step 2"):
         assert want in text
     assert f"{d.error_before:.4g}" in text and f"{d.error_after:.4g}" in text
@@ -303,3 +305,28 @@ def test_figure_before_after_and_maps(tmp_path):
         sd.plot.diagnosis(d.model)
     with pytest.raises(ValueError, match="channel"):
         sd.plot.diagnosis(d, channel=("N99.z", SHAKERS[0]))
+
+
+def test_command_line(tmp_path):
+    import pathlib
+    import subprocess
+    import sys
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    case = CASES["mass"]
+    sd.write_uff(clean_data(case), tmp_path / "data.uff")
+    model = sd.save(nominal(), tmp_path / "model")
+    fe = sd.save(FE, tmp_path / "fe")
+    env = {**__import__("os").environ, "PYTHONPATH": str(root)}
+    cmd = [sys.executable, "-m", "sdctrl.cli", "diagnose", str(model), "data.uff", "--fe",
+           str(fe), "--report", "out.md", "--max-effects", "1", "--quiet"]
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr
+    row = re.search(r"\| 1 \| mass_change \| N20 \| dm = (\S+) kg", proc.stdout)
+    assert row and float(row.group(1)) == pytest.approx(0.5, rel=0.02)
+    text = (tmp_path / "out.md").read_text()
+    assert text.startswith("# Diagnosis") and "mass_change" in text
+    bad = subprocess.run(cmd[:5] + ["missing.uff"], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, timeout=120, check=False)
+    assert bad.returncode == 2 and "missing.uff" in bad.stderr

@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 
+from sdctrl._threads import single_thread
 from sdctrl._validate import check_int, check_scalar
 from sdctrl.diagnosis.apply import DelayedModel, apply_effect
 from sdctrl.diagnosis.candidates import candidate_groups
@@ -175,6 +176,13 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     []
     """
     physical = _check(model, frf, fe, executor, max_effects, noise, reach)
+    with single_thread():         # small dense kernels: BLAS threads only add contention
+        return _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress,
+                          physical)
+
+
+def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress, physical):
+    """The steps of :func:`diagnose` (arguments checked)."""
     t0 = time.perf_counter()
     inner0 = model.model if isinstance(model, DelayedModel) else model
     placed0 = place(inner0, frf, band)
