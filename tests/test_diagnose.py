@@ -66,8 +66,7 @@ def _with_resonator(dof, m, f, zeta):
             X[N, i] -= v
         return X.tocsr()
 
-    M = grow(FE.M, 0.0)
-    M[N, N] = m
+    M = sp.block_diag([FE.M, sp.csr_matrix([[m]])]).tocsr()
     return sd.FEModel(M, grow(FE.K, m * w * w), grow(FE.C, 2 * zeta * w * m),
                       dofs=list(FE.dofs) + ["R.z"])
 

@@ -17,7 +17,7 @@ the element's own axial stiffness ``EA/L``, so that one grid of relative sizes s
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -89,7 +89,6 @@ class Family:
     base: np.ndarray
     bounds: np.ndarray
     reference: np.ndarray
-    extra: dict = field(default_factory=dict)
 
     @property
     def size(self) -> int:
