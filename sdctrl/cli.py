@@ -1,9 +1,10 @@
-"""The ``sdctrl`` command line: ``demo``, ``identify``, ``info`` (arguments only; the jobs
-live in :mod:`sdctrl.story`)."""
+"""The ``sdctrl`` command line: ``demo``, ``identify``, ``diagnose``, ``info`` (arguments
+only; the jobs live in :mod:`sdctrl.story` and :mod:`sdctrl.diagnosis`)."""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 __all__ = ["main"]
@@ -17,6 +18,8 @@ _EPILOG = """\
 examples:
   sdctrl demo                          the whole story on the built-in testbed
   sdctrl identify test.uff --band 8 60 the modes of your own test, with a report
+  sdctrl diagnose model.npz new.uff --fe fe.npz
+                                       what a saved model lacks against a new test
   sdctrl info test.uff                 what a UFF file or a saved model holds
 
 Run 'sdctrl COMMAND --help' for the options of a command."""
@@ -112,9 +115,48 @@ def _info_run(args) -> int:
     return _info(args.path)
 
 
+def _diagnose(args) -> int:
+    """``sdctrl diagnose``: the effects a saved model lacks against measured FRFs."""
+    from sdctrl.diagnosis import diagnose
+    from sdctrl.fe import FEModel
+    from sdctrl.io import read_uff
+    from sdctrl.storage import load
+
+    model = load(args.model)
+    frf = load(args.data) if args.data.endswith(".npz") else read_uff(args.data)
+    fe = None if args.fe is None else load(args.fe)
+    if fe is not None and not isinstance(fe, FEModel):
+        raise TypeError(f"--fe: {args.fe} holds a {type(fe).__name__}, not an FEModel")
+    d = diagnose(model, frf, fe, max_effects=args.max_effects, progress=not args.quiet)
+    report = d.report()
+    if args.figure:
+        from sdctrl.plot import diagnosis as figure
+
+        figure(d, path=args.figure)
+        report = d.report(figure=os.path.basename(args.figure))
+    with open(args.report, "w", encoding="utf-8") as fh:
+        fh.write(report)
+    print(f"error (complex logLS, 3.12): {d.error_before:.4g} before, {d.error_after:.4g} after")
+    print(d.table() if d.effects else "no effect added: the model matches the data")
+    print(f"report written to {args.report}")
+    return 0
+
+
+def _diagnose_parser(sub) -> None:
+    p = sub.add_parser("diagnose", help="trace the residual between a saved model and measured "
+                       "FRFs to the effects the model lacks")
+    p.add_argument("model", help="model saved by sdctrl.save (.npz)")
+    p.add_argument("data", help="measured FRFs (.uff/.unv, or .npz saved by sdctrl.save)")
+    p.add_argument("--fe", help="FE model saved by sdctrl.save (.npz): physical candidates")
+    p.add_argument("--report", default="diagnosis.md", help="report (default diagnosis.md)")
+    p.add_argument("--figure", help="also draw the figure there (e.g. diagnosis.png)")
+    p.add_argument("--max-effects", type=int, default=4, help="at most this many effects")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
 #: command name -> (add its arguments to the subparsers, run it); help lists them in order
 COMMANDS = {"demo": (_demo_args, _demo_run), "identify": (_identify_args, _identify_run),
-            "info": (_info_args, _info_run)}
+            "diagnose": (_diagnose_parser, _diagnose), "info": (_info_args, _info_run)}
 
 
 def _parser() -> argparse.ArgumentParser:

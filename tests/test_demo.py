@@ -26,13 +26,6 @@ MODELS = {"identified": "ComplexModeModel", "normal_modes": "NormalModeModel",
           "fe_updated": "FEModel", "updated_model": "NormalModeModel",
           "hybrid": "HybridModel", "uncertain": "UncertainModel"}
 
-#: the diagnosis step calls sd.diagnose (issue 12), not on this branch yet: the tests that
-#: need it are expected to fail with AttributeError until it lands.  The lead removes this
-#: mark when merging it (strict: a pass is then reported as a failure, so it cannot stay).
-PENDING_DIAGNOSE = pytest.mark.xfail(raises=AttributeError, strict=True,
-                                     reason="sd.diagnose (issue 12) not merged yet")
-
-
 def _env():
     env = dict(os.environ, MPLBACKEND="Agg", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
@@ -78,8 +71,6 @@ def test_html_report_is_self_contained_with_contents_and_figures(demo):
         assert f'<a href="#{key}">' in html, key
         _section(html, key)
     for key, figs in FIGURES.items():
-        if key == "diagnosis":
-            continue
         sec = _section(html, key)
         for fig in figs:
             m = re.search(rf'<figure id="fig-{fig}"><img alt="{fig}" src="data:image/png;base64,'
@@ -88,8 +79,8 @@ def test_html_report_is_self_contained_with_contents_and_figures(demo):
     # nothing fetched from elsewhere: every src is an embedded image
     assert not re.search(r'src="(?!data:image/png;base64,)', html)
     assert "<script" not in html
-    # every section but the pending diagnosis states its key numbers against the truth
-    for key in SECTIONS[1:7]:
+    # every section states its key numbers against the truth
+    for key in SECTIONS[1:8]:
         assert '<table class="checks">' in _section(html, key), key
     md = (demo["out"] / "report.md").read_text()
     assert md.startswith("# sdctrl demo") and "## FE model update" in md
@@ -100,8 +91,6 @@ def test_html_report_is_self_contained_with_contents_and_figures(demo):
 def test_every_stated_tolerance_is_met(demo):
     assert demo["proc"].returncode == 0, demo["proc"].stdout[-2000:]
     for key, step in demo["steps"].items():
-        if key == "diagnosis":
-            continue
         assert step["status"] == "ok", (key, step["message"])
         failed = [c["quantity"] for c in step["checks"] if c["passed"] is False]
         assert not failed, (key, failed)
@@ -182,9 +171,7 @@ def test_every_model_file_loads_back(demo):
     assert G.nstates == 2 * hy.n and "N32_z" in G.output_labels
 
 
-@PENDING_DIAGNOSE
 def test_diagnosis_names_the_planted_effect(demo):
-    sd.diagnose                                  # noqa: B018 -- AttributeError until it lands
     step = demo["steps"]["diagnosis"]
     assert step["status"] == "ok", step["message"]
     num = step["numbers"]
@@ -221,7 +208,8 @@ def test_identify_own_data(tmp_path):
 def test_help_and_version_are_plain_text():
     proc = _sdctrl("--version")
     assert proc.returncode == 0 and proc.stdout.strip() == f"sdctrl {sd.__version__}"
-    for args in (["--help"], ["demo", "--help"], ["identify", "--help"], ["info", "--help"]):
+    for args in (["--help"], ["demo", "--help"], ["identify", "--help"], ["diagnose", "--help"],
+                 ["info", "--help"]):
         text = _sdctrl(*args).stdout
         assert text.startswith("usage: sdctrl")
         for rst in ("``", ":func:", ":mod:", ":class:", ".. "):

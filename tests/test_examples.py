@@ -11,21 +11,8 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
-#: examples and notebooks that call sd.diagnose (issue 12), not merged yet: expected to fail
-#: with "no attribute 'diagnose'" until it lands (then the strict xfail fails: the lead
-#: removes the entries when merging it)
-PENDING = {"diagnose_effect.py", "07_diagnosis.ipynb"}
-
-
-def _cases(paths):
-    marks = pytest.mark.xfail(raises=AttributeError, strict=True,
-                              reason="sd.diagnose (issue 12) not merged yet")
-    return [pytest.param(p, id=p.name, marks=marks if p.name in PENDING else ())
-            for p in paths]
-
-
-EXAMPLES = _cases(sorted((ROOT / "examples").glob("*.py")))
-NOTEBOOKS = _cases(sorted((ROOT / "notebooks").glob("*.ipynb")))
+EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 NOT_RUN = "# not executed"
 
 
@@ -37,22 +24,14 @@ def _env():
     return env
 
 
-def _missing_diagnose(text: str) -> None:
-    """Raise AttributeError when a run failed only because sd.diagnose does not exist."""
-    if "has no attribute 'diagnose'" in text:
-        raise AttributeError("module 'sdctrl' has no attribute 'diagnose'")
-
-
-@pytest.mark.parametrize("script", EXAMPLES)
+@pytest.mark.parametrize("script", EXAMPLES, ids=lambda p: p.name)
 def test_example_runs(script, tmp_path):
     proc = subprocess.run([sys.executable, str(script), str(tmp_path)], check=False,
                           cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=600)
-    if proc.returncode:
-        _missing_diagnose(proc.stderr)
     assert proc.returncode == 0, f"{script.name} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
 
 
-@pytest.mark.parametrize("notebook", NOTEBOOKS)
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs(notebook, tmp_path, monkeypatch):
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
@@ -61,11 +40,7 @@ def test_notebook_runs(notebook, tmp_path, monkeypatch):
     nb = nbformat.read(notebook, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})
-    try:
-        client.execute()
-    except nbclient.exceptions.CellExecutionError as exc:
-        _missing_diagnose(str(exc))
-        raise
+    client.execute()
     # progress bars in a notebook without ipywidgets: plain text, no "IProgress not found"
     text = "\n".join(o.get("text", "") for c in nb.cells if c.cell_type == "code"
                      for o in c.get("outputs", []) if o.get("output_type") == "stream")

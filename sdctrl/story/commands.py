@@ -75,7 +75,7 @@ def _summary(log) -> dict:
     return {"sdctrl": __version__, "seconds": log.seconds, "steps": steps}
 
 
-def _diagnosis(log, test, upd):
+def _diagnosis(log, test, upd, progress=None):
     """Step 8, or a "not available" line when this version has no ``sdctrl.diagnose``."""
     import sdctrl
 
@@ -84,7 +84,8 @@ def _diagnosis(log, test, upd):
         log.unavailable("diagnosis", title, "sdctrl.diagnose is not in this version of sdctrl "
                         f"({sdctrl.__version__})")
         return None
-    return log.run("diagnosis", title, diagnose_retest, test, upd, needs=[upd])
+    return log.run("diagnosis", title, diagnose_retest, test, upd, progress=progress,
+                   needs=[upd])
 
 
 def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bool = False,
@@ -135,7 +136,7 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
                  progress=progress, needs=[hy])
     rb = log.run("robustness", "robust stability", robust_strut, hy, pl, upd,
                  progress=progress, needs=[pl])
-    dg = _diagnosis(log, test, upd)
+    dg = _diagnosis(log, test, upd, progress)
     t0 = time.perf_counter()
     doc = Document("sdctrl demo: from a vibration test to a robust, diagnosed model",
                    "Every step of sdctrl on the built-in testbed, whose truth is known: each "

@@ -193,7 +193,8 @@ class Diagnosed:
 
 
 def diagnose_retest(test, update, noise: float | None = None, seed: int | None = None,
-                    planted: Planted = PLANTED, executor=None) -> Diagnosed:
+                    planted: Planted = PLANTED, executor=None,
+                    progress: bool | None = None) -> Diagnosed:
     """Step 8: simulate the second test with the planted effect and diagnose it.
 
     Parameters
@@ -211,6 +212,8 @@ def diagnose_retest(test, update, noise: float | None = None, seed: int | None =
         The undeclared effect.
     executor : concurrent.futures.Executor, optional
         For the candidate scan of :func:`sdctrl.diagnose`.
+    progress : bool, optional
+        Progress bar policy.
 
     Returns
     -------
@@ -225,5 +228,6 @@ def diagnose_retest(test, update, noise: float | None = None, seed: int | None =
     frf2 = simulate_test(planted_structure(test.fe, planted), test.frf.freq, noise, seed,
                          SENSORS, SHAKERS, 5 * TESTBED_BAND[1])
     model = update.result.model
-    diagnosis = sdctrl.diagnose(model, frf2, fe=update.result.fe, executor=executor)
+    diagnosis = sdctrl.diagnose(model, frf2, fe=update.result.fe, executor=executor,
+                                progress=progress)
     return Diagnosed(frf2, model, diagnosis, planted)
