@@ -41,6 +41,12 @@ __all__ = ["ReducedBasis", "reduced_basis"]
 STATIC_RTOL = 1e-6
 #: parameters touching more DOFs than this use modal load shapes ``dX phi`` (see reduced_basis)
 RANGE_MAX = 600
+#: a static correction smaller than this fraction of its static response is round-off (the
+#: basis already represents that response: all the modes of a small model are retained)
+STATIC_ROUNDOFF = 1e-9
+#: a new direction keeping less than this fraction of its squared mass norm once the basis's
+#: part is removed lies in the basis (round-off of an already complete basis)
+NEW_DIRECTION = 1e-8
 
 
 def _bordered(A, B, D):
@@ -166,10 +172,14 @@ class ReducedBasis:
         ndarray, shape (N, k)
         """
         B, _ = shapes_on_dofs(b, self.N, self.fe.dofs, "b")
+        return self._correction(B)[0]
+
+    def _correction(self, B):
+        """``(psi, X)``: the static correction of ``B`` and its static response ``K^-1 B``."""
         X = self.fe.static_response(B)
         r = self.n_rigid
         Tf = self.T[:, r:]
-        return X - Tf @ np.linalg.solve(self.Kr[r:, r:], Tf.T @ B)
+        return X - Tf @ np.linalg.solve(self.Kr[r:, r:], Tf.T @ B), X
 
     def loads(self, b) -> tuple[np.ndarray, np.ndarray]:
         """Modal projection and static correction of load shapes, consistently with the basis.
@@ -214,23 +224,33 @@ class ReducedBasis:
         -------
         ReducedBasis
         """
-        psi = self.static_correction(b)
-        return self._append(psi, rtol, max_modes, source)
+        B, _ = shapes_on_dofs(b, self.N, self.fe.dofs, "b")
+        psi, X = self._correction(B)
+        return self._append(psi, X, rtol, max_modes, source)
 
-    def _append(self, psi, rtol, max_modes, source) -> ReducedBasis:
+    def _append(self, psi, X, rtol, max_modes, source) -> ReducedBasis:
+        """Append the significant part of the corrections ``psi`` of static responses ``X``.
+
+        Round-off is not a direction: a correction below :data:`STATIC_ROUNDOFF` of its
+        static response (the basis already holds it -- a small model with all its modes
+        retained) is dropped, and so is a principal direction that the basis spans up to
+        :data:`NEW_DIRECTION`; the basis never exceeds ``N`` independent vectors.
+        """
         M, K = self.fe.M, self.fe.K
         T = self.T
+        if T.shape[1] >= self.N or not psi.size:
+            return self
         psi = psi - T @ (T.T @ np.asarray(M @ psi))          # exact M-orthogonality
-        ref = max(np.sqrt(np.abs(np.diag(self.Mr)).max()), 1e-300)
         norms = np.sqrt(np.abs(np.einsum("ij,ij->j", psi, np.asarray(M @ psi))))
-        psi = psi[:, norms > 1e-12 * ref * max(norms.max(), 1e-300)] if psi.size else psi
+        xnorms = np.sqrt(np.abs(np.einsum("ij,ij->j", X, np.asarray(M @ X))))
+        psi = psi[:, norms > STATIC_ROUNDOFF * xnorms]
         if not psi.shape[1]:
             return self
         V = principal_static_modes(psi, M, rtol)
         if max_modes is not None:
             V = V[:, :max(int(max_modes), 0)]
         V = V - T @ (T.T @ np.asarray(M @ V))                # clean-up after the SVD
-        V = principal_static_modes(V, M, rtol)
+        V = principal_static_modes(V, M, rtol, atol=NEW_DIRECTION)[:, :self.N - T.shape[1]]
         if not V.shape[1]:
             return self
         KV = np.asarray(K @ V)
