@@ -214,7 +214,9 @@ class ReducedBasis:
             Load shapes ``F_U``.
         rtol : float
             Principal directions with a mass-orthogonal singular value below ``rtol``
-            times the largest are dropped (4.24).
+            times the largest are dropped (4.24).  Corrections that the basis already
+            holds up to round-off are dropped too (:data:`STATIC_ROUNDOFF`,
+            :data:`NEW_DIRECTION`), so the basis never exceeds ``N`` independent vectors.
         max_modes : int, optional
             Keep at most this many principal static modes (largest first).
         source : str
@@ -231,10 +233,18 @@ class ReducedBasis:
     def _append(self, psi, X, rtol, max_modes, source) -> ReducedBasis:
         """Append the significant part of the corrections ``psi`` of static responses ``X``.
 
-        Round-off is not a direction: a correction below :data:`STATIC_ROUNDOFF` of its
-        static response (the basis already holds it -- a small model with all its modes
-        retained) is dropped, and so is a principal direction that the basis spans up to
-        :data:`NEW_DIRECTION`; the basis never exceeds ``N`` independent vectors.
+        A mass-weighted orthonormalisation against the basis with relative tolerances, so
+        that the basis stays mass-orthonormal and never holds more than ``N`` independent
+        vectors (the reduced mass ``T^T M T`` stays the identity):
+
+        1. ``psi`` is made ``M``-orthogonal to ``T``; a column left with less than
+           :data:`STATIC_ROUNDOFF` of the mass norm of its static response ``X`` is
+           round-off, not a direction (the basis already represents that response: a small
+           model with all its modes retained has nothing to correct);
+        2. principal static modes (4.24): directions below ``rtol`` of the largest dropped;
+        3. re-orthogonalisation against ``T`` (a second pass, as in Gram-Schmidt with
+           reorthogonalisation); a principal direction of unit mass norm keeping less than
+           :data:`NEW_DIRECTION` of its squared norm lies in ``span(T)`` and is dropped.
         """
         M, K = self.fe.M, self.fe.K
         T = self.T
@@ -320,7 +330,10 @@ def reduced_basis(fe, parameters=(), inputs=None, *, fmax: float | None = None,
         wider ones fall back to modal loads), ``"modal"`` the loads ``dX phi`` they
         apply in the retained modes (the static part of the modes' first-order change).
     rtol : float
-        Relative threshold of the principal static modes (4.24).
+        Relative threshold of the principal static modes (4.24).  Static corrections that
+        the basis already represents up to round-off (e.g. a small model with all its
+        modes retained) add no vector: the basis stays mass-orthonormal with at most ``N``
+        vectors (see :meth:`ReducedBasis.augmented`).
     max_static : int, optional
         At most this many principal static modes per parameter.
 
