@@ -32,6 +32,7 @@ import numpy as np
 from sdctrl._progress import progress_bar
 from sdctrl._threads import single_thread
 from sdctrl._util import markdown_table
+from sdctrl._validate import check_int, check_scalar
 from sdctrl.fe.validation import check_fe_model
 from sdctrl.updating.fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating.measured import error_level, identify_test, measured_modes, place_test
@@ -282,8 +283,12 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     pars = check_parameters(parameters, fe)
     measured = place_test(fe, frf, band)
     choice, given = damping_choice(fe, damping)
-    if not 0 < corr_max < 1:
+    corr_max = check_scalar(corr_max, "corr_max", positive=True)
+    if not corr_max < 1:
         raise ValueError(f"corr_max must lie in (0, 1), got {corr_max!r}")
+    noise = check_scalar(noise, "noise", nonneg=True, optional=True)
+    n_averages = check_int(n_averages, "n_averages", minimum=1)
+    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
     cm = None
     need_id = (choice[0] == "modal" and choice[1] is None and given is None) or \
         (noise is None and measured.frf.coherence is None)
@@ -293,12 +298,10 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     if choice[0] == "modal" and choice[1] is None:
         modes = measured_modes(measured, given if given is not None else cm)
     if noise is not None:
-        level, source = float(noise), "given"
-        if not np.isfinite(level) or level < 0:
-            raise ValueError(f"noise must be a non-negative error level, got {noise!r}")
+        level, source = noise, "given"
     else:
         level, source = error_level(measured, cm, n_averages)
-    fmax = FMAX_FACTOR * float(measured.freq[-1]) if fmax is None else float(fmax)
+    fmax = FMAX_FACTOR * float(measured.freq[-1]) if fmax is None else fmax
     with single_thread():
         prob = build_problem(fe, measured, pars, choice, modes, fmax=fmax)
         deltas = np.array([p.standard_change for p in pars])
