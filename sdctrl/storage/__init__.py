@@ -36,7 +36,8 @@ type: files written today must load tomorrow.
 
 from __future__ import annotations
 
-from sdctrl.storage import builtin  # noqa: F401  (registers the built-in types)
+# importing builtin and results registers the built-in types and those of FE updating
+from sdctrl.storage import builtin, results  # noqa: F401
 from sdctrl.storage.archive import FORMAT_VERSION, StorageWarning, load, save
 from sdctrl.storage.registry import Codec, register, register_attrs, registered
 

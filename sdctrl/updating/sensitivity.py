@@ -38,7 +38,7 @@ from sdctrl.updating.fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating.measured import error_level, identify_test, measured_modes, place_test
 from sdctrl.updating.problem import build_problem
 
-__all__ = ["CostMap", "Identifiability", "identifiability"]
+__all__ = ["CostMap", "CostProblem", "Identifiability", "identifiability"]
 
 #: pairs whose effects correlate above this are confounded
 CORRELATION_MAX = 0.95
@@ -108,7 +108,7 @@ class Identifiability:
     separation : ndarray, shape (n, n)
         Mean squared effect of the least-distinguishable unit combination of standard
         changes of each pair (inf on the diagonal).
-    problem : object
+    problem : CostProblem
         The reduced update problem (for :meth:`cost_map`).
     """
 
@@ -313,13 +313,25 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     confounded, sep = _pairs(names, corr, J, level, weak, corr_max)
     return Identifiability(names, dict(zip(names, sens.tolist())), corr, confounded, weak,
                            level, source, dict(zip(names, deltas.tolist())), sep,
-                           _Problem(prob.rm, measured.omega, measured.logH, pars))
+                           CostProblem(prob.rm, measured.omega, measured.logH, pars))
 
 
 @dataclass(frozen=True, eq=False)
-class _Problem:
-    """What cost maps need, lean enough to pickle for executors: the reduced model, the
-    data's lines and ``log |H|``, the parameters."""
+class CostProblem:
+    """What cost maps need, lean enough to pickle for executors (and to save with
+    :func:`sdctrl.save`): the reduced model, the data's lines and ``log |H|``, the parameters.
+
+    Parameters
+    ----------
+    rm : ReducedModel
+        The parametric reduced model (4.17) on the test's sensors and actuators.
+    omega : ndarray, shape (nf,)
+        The test's lines (rad/s).
+    logH : ndarray, shape (nf, ns, na)
+        ``log |H|`` of the measured displacement FRF.
+    parameters : tuple of Parameter
+        The parameters, in the order of ``rm.names``.
+    """
 
     rm: object
     omega: np.ndarray
@@ -327,5 +339,16 @@ class _Problem:
     parameters: tuple
 
     def cost(self, p) -> float:
+        """logLS cost (3.12) at parameter values ``p``.
+
+        Parameters
+        ----------
+        p : array_like, shape (npar,)
+            Parameter values.
+
+        Returns
+        -------
+        float
+        """
         r = np.log(np.abs(self.rm.frf(p, self.omega)) + 1e-300) - self.logH
         return float(np.mean(r**2))
