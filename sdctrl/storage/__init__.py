@@ -26,10 +26,12 @@ function giving its fields and a function building it from them (validating them
 constructor does), and the dtype kinds allowed for its array fields.  A new result type registers
 itself with one call, usually::
 
-    register_attrs("UpdateResult", "sdctrl.updating.fit:UpdateResult",
-                   kinds={"values_array": "f"})
+    register_attrs("RobustResult", "sdctrl.robust:RobustResult",
+                   kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)
 
-(fields read from the dataclass; the constructor validates) or, for full control,
+(fields read from the dataclass; ``build``, or else the constructor, validates them: see
+:mod:`sdctrl.storage.builtin` and, for the results of FE updating, :mod:`sdctrl.storage.results`)
+or, for full control,
 ``register(Codec(name, cls, to_fields, from_fields, kinds))``.  Names are never reused for another
 type: files written today must load tomorrow.
 """
