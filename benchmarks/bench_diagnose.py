@@ -23,7 +23,7 @@ import warnings
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "tests"))
+sys.path[:0] = [os.path.join(HERE, ".."), os.path.join(HERE, "..", "tests")]
 
 import sdctrl as sd
 from sdctrl._threads import single_thread
@@ -66,7 +66,7 @@ def main() -> None:
             print(f"  top effect {e.kind} at {e.location}: dm = {e.parameters['dm']:.5g} kg "
                   f"(true 0.5, {e.parameters['dm'] / 0.5 - 1:+.2%}); error "
                   f"{d.error_before:.3g} -> {d.error_after:.3g} "
-                  f"({d.error_after / d.error_before:.2%})")
+                  f"(ratio {d.error_after / d.error_before:.2g})")
     shape = clean.H.shape
     print(f"data {shape[1]} x {shape[2]} x {shape[0]} lines; candidates per step: {n_cand} "
           f"(+ global ones); load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")

@@ -252,8 +252,13 @@ def test_report_and_inputs_untouched():
 
 
 def test_without_fe_a_free_mode_or_global_effects():
-    d = diagnosis(CASES["delay"])
-    assert d.effects[0].kind == "delay"
+    # the resonator seen without an FE model: a free extra mode at its frequency
+    d = sd.diagnose(nominal(), clean_data(CASES["resonator"]), max_effects=1, progress=False)
+    top = d.effects[0]
+    assert top.kind == "missing_mode" and top.location == top.parameters["frequency"]
+    assert top.parameters["frequency"] == pytest.approx(30.0, rel=0.005)
+    assert top.error_after < 0.8 * top.error_before
+    assert d.model.n == nominal().n + 1
     own = nominal().frf(FREQ, "acceleration")
     lag = np.exp(-2j * np.pi * FREQ * 1e-3)[:, None, None]
     late = sd.FRF(FREQ, own.H * lag, quantity="acceleration", sensors=own.sensors,

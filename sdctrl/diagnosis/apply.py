@@ -166,7 +166,9 @@ def _append_mode(model, placed, p):
     c[placed.rows] = p["c"]
     b = np.zeros(na)
     b[placed.cols] = p["b"]
-    if hasattr(model, "poles"):
+    from sdctrl.identification import ComplexModeModel
+
+    if isinstance(model, ComplexModeModel):
         wd = w * np.sqrt(max(1 - z * z, 1e-12))
         lam = complex(-z * w, wd)
         R = np.outer(c, b) / (2j * wd)
