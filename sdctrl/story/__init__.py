@@ -7,7 +7,8 @@ Each step is a small function returning a record (frozen dataclass) with a one-l
 ``summary``, ``checks()`` (key numbers against the truth), ``numbers()`` (for
 ``summary.json``) and ``section(doc)`` (its part of the HTML report):
 
-- :mod:`sdctrl.story.measured` -- the test, identification, normal modes;
+- :mod:`sdctrl.story.simulated` -- the simulated test and its truth;
+- :mod:`sdctrl.story.measured` -- identification, normal modes;
 - :mod:`sdctrl.story.modelling` -- FE update, hybrid model, D-strut placement;
 - :mod:`sdctrl.story.robustness` -- structured uncertainty and the robust margin;
 - :mod:`sdctrl.story.diagnosing` -- the second test and its diagnosis;

@@ -8,14 +8,11 @@ import time
 
 from sdctrl.report import Document
 from sdctrl.story.diagnosing import diagnose_retest
-from sdctrl.story.measured import (
-    identify_test,
-    normal_modes_of,
-    simulated_testbed_test,
-)
+from sdctrl.story.measured import identify_test, normal_modes_of
 from sdctrl.story.modelling import build_hybrid, place_strut, update_fe
 from sdctrl.story.robustness import robust_strut
 from sdctrl.story.runner import StepLog, agg_backend, write_outputs
+from sdctrl.story.simulated import simulated_testbed_test
 
 __all__ = ["demo", "identify_report", "mode_lines"]
 

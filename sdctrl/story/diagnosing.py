@@ -133,7 +133,8 @@ class Diagnosed:
         d, t = self.diagnosis, self.top
         if t is None:
             return f"no effect found; error {d.error_before:.3g}"
-        return (f"{t.kind} at {t.location} {t.parameters}; error {d.error_before:.3g} -> "
+        sizes = ", ".join(f"{k} = {v:.4g}" for k, v in (t.parameters or {}).items())
+        return (f"{t.kind} at {t.location} ({sizes}); error {d.error_before:.3g} -> "
                 f"{d.error_after:.3g}")
 
     def checks(self) -> list[Check]:
@@ -220,7 +221,7 @@ def diagnose_retest(test, update, noise: float | None = None, seed: int | None =
     Diagnosed
     """
     import sdctrl
-    from sdctrl.story.measured import simulate_test
+    from sdctrl.story.simulated import simulate_test
     from sdctrl.testbeds import SENSORS, SHAKERS, TESTBED_BAND
 
     noise = test.noise if noise is None else float(noise)

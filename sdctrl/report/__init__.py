@@ -14,12 +14,12 @@ from __future__ import annotations
 import base64
 import html
 import io
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from sdctrl._util import markdown_table
+from sdctrl.report.markup import CSS, html_table, inline, markdown_to_html, nest_headings
 
 __all__ = ["Check", "Document", "Section", "markdown_table", "markdown_to_html", "modes_table"]
 
@@ -125,134 +125,6 @@ _CHECK_HEADER = ("quantity", "obtained", "truth", "error", "tolerance", "")
 
 
 # --- markdown subset to HTML ----------------------------------------------------------------
-def _inline(text: str) -> str:
-    """Escape, then ``code``, **bold**, *emphasis*, [links](url) and images as their alt."""
-    parts = re.split(r"(`[^`]+`)", text)
-    out = []
-    for p in parts:
-        if len(p) > 1 and p.startswith("`") and p.endswith("`"):
-            out.append(f"<code>{html.escape(p[1:-1])}</code>")
-            continue
-        p = html.escape(p, quote=False)
-        p = re.sub(r"!\[([^\]]*)\]\([^)]*\)", r"<em>[figure: \1]</em>", p)
-        p = re.sub(r"\[([^\]]+)\]\(([^)\s]+)\)", r'<a href="\2">\1</a>', p)
-        p = re.sub(r"\*\*([^*]+)\*\*", r"<strong>\1</strong>", p)
-        p = re.sub(r"(?<![*\w])\*([^*\s][^*]*)\*(?![*\w])", r"<em>\1</em>", p)
-        out.append(p)
-    return "".join(out)
-
-
-def _split_row(line: str) -> list[str]:
-    cells = line.strip()
-    cells = cells.removeprefix("|")
-    cells = cells.removesuffix("|")
-    return [c.strip() for c in cells.split("|")]
-
-
-def _html_table(header, rows, align=None) -> str:
-    align = align or [""] * len(header)
-    th = "".join(f"<th{a}>{_inline(str(h))}</th>" for h, a in zip(header, align))
-    body = "".join("<tr>" + "".join(f"<td{a}>{_inline(str(c))}</td>"
-                                    for c, a in zip(r, align)) + "</tr>" for r in rows)
-    return f"<table><thead><tr>{th}</tr></thead><tbody>{body}</tbody></table>"
-
-
-def _table_block(lines: list[str]) -> str:
-    header = _split_row(lines[0])
-    align = []
-    for c in _split_row(lines[1]) if len(lines) > 1 else []:
-        right, left = c.endswith(":"), c.startswith(":")
-        align.append(' class="num"' if right and not left else "")
-    rows = [_split_row(x) for x in lines[2:]]
-    return _html_table(header, rows, align + [""] * (len(header) - len(align)))
-
-
-def markdown_to_html(text: str, heading_offset: int = 0) -> str:
-    """HTML of the markdown subset sdctrl's reports use.
-
-    Headings, paragraphs, ``-`` lists, pipe tables, fenced code, inline code, bold,
-    emphasis and links; raw HTML is escaped (a report never injects markup).
-
-    Parameters
-    ----------
-    text : str
-        Markdown.
-    heading_offset : int
-        Added to every heading level (``# x`` becomes ``<h3>`` with offset 2), so that an
-        embedded report nests under its section.
-
-    Returns
-    -------
-    str
-    """
-    lines = str(text).splitlines()
-    out, para, i = [], [], 0
-
-    def flush():
-        if para:
-            out.append(f"<p>{_inline(' '.join(para))}</p>")
-            para.clear()
-
-    while i < len(lines):
-        line = lines[i]
-        s = line.strip()
-        if s.startswith("```"):
-            flush()
-            j = i + 1
-            while j < len(lines) and not lines[j].strip().startswith("```"):
-                j += 1
-            out.append(f"<pre>{html.escape(chr(10).join(lines[i + 1:j]))}</pre>")
-            i = j + 1
-            continue
-        m = re.match(r"^(#{1,6})\s+(.*)$", s)
-        if m:
-            flush()
-            level = min(len(m.group(1)) + heading_offset, 6)
-            out.append(f"<h{level}>{_inline(m.group(2))}</h{level}>")
-        elif s.startswith("|"):
-            flush()
-            j = i
-            while j < len(lines) and lines[j].strip().startswith("|"):
-                j += 1
-            out.append(_table_block(lines[i:j]))
-            i = j
-            continue
-        elif s.startswith(("- ", "* ")):
-            flush()
-            items = []
-            while i < len(lines) and lines[i].strip().startswith(("- ", "* ")):
-                items.append(f"<li>{_inline(lines[i].strip()[2:])}</li>")
-                i += 1
-            out.append(f"<ul>{''.join(items)}</ul>")
-            continue
-        elif not s:
-            flush()
-        else:
-            para.append(s)
-        i += 1
-    flush()
-    return "\n".join(out)
-
-
-# --- the document ---------------------------------------------------------------------------
-_CSS = """
-body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;max-width:1100px;
-margin:2em auto;padding:0 1em;line-height:1.45;color:#222}
-h1{border-bottom:2px solid #345;padding-bottom:.2em}
-h2{border-bottom:1px solid #ccd;margin-top:2em;padding-bottom:.1em}
-code,pre{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.92em}
-code{background:#f3f3f6;padding:0 .2em;border-radius:3px}
-pre{background:#f6f6f9;padding:.6em;overflow-x:auto}
-table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
-th,td{border:1px solid #ccd;padding:.2em .55em;text-align:left}
-th{background:#eef0f6}td.num{text-align:right}
-td.ok{color:#176b1c;font-weight:bold}td.failed{color:#b00020;font-weight:bold}
-figure{margin:1em 0}figure img{max-width:100%;border:1px solid #eee}
-figcaption{font-size:.9em;color:#555}
-nav ol{columns:2}.note{color:#555;font-size:.92em}.error{color:#b00020}
-"""
-
-
 class Section:
     """One section of a :class:`Document` (built by :meth:`Document.section`).
 
@@ -409,7 +281,7 @@ class Section:
         for b in self.blocks:
             kind = b[0]
             if kind == "p":
-                out.append(f"<p>{_inline(b[1])}</p>")
+                out.append(f"<p>{inline(b[1])}</p>")
             elif kind == "md":
                 out.append(markdown_to_html(b[1], heading_offset=level))
             elif kind == "pre":
@@ -417,14 +289,14 @@ class Section:
             elif kind == "error":
                 out.append(f'<pre class="error">{html.escape(b[1])}</pre>')
             elif kind == "table":
-                cap = f'<p class="note">{_inline(b[3])}</p>' if b[3] else ""
-                out.append(_html_table(b[1], b[2]) + cap)
+                cap = f'<p class="note">{inline(b[3])}</p>' if b[3] else ""
+                out.append(html_table(b[1], b[2]) + cap)
             elif kind == "checks":
                 out.append(_checks_html(b[1]))
             elif kind == "figure":
                 data = base64.b64encode(b[2]).decode("ascii")
                 out.append(f'<figure id="fig-{html.escape(b[1])}"><img alt="{html.escape(b[1])}"'
-                           f' src="data:image/png;base64,{data}"><figcaption>{_inline(b[3])}'
+                           f' src="data:image/png;base64,{data}"><figcaption>{inline(b[3])}'
                            "</figcaption></figure>")
         out.append("</section>")
         return "\n".join(out)
@@ -436,7 +308,7 @@ class Section:
             if kind == "p":
                 out += [b[1], ""]
             elif kind == "md":
-                out += [_nest_headings(b[1]), ""]
+                out += [nest_headings(b[1]), ""]
             elif kind in ("pre", "error"):
                 out += ["```", b[1], "```", ""]
             elif kind == "table":
@@ -450,16 +322,6 @@ class Section:
         return "\n".join(out), files
 
 
-def _nest_headings(text: str) -> str:
-    """Markdown with every heading two levels deeper (an embedded report in a section)."""
-    out, fence = [], False
-    for line in text.splitlines():
-        if line.strip().startswith("```"):
-            fence = not fence
-        out.append("##" + line if not fence and re.match(r"^#{1,4}\s", line) else line)
-    return "\n".join(out)
-
-
 def _checks_html(checks) -> str:
     head = "".join(f"<th>{h}</th>" for h in _CHECK_HEADER)
     rows = []
@@ -467,7 +329,7 @@ def _checks_html(checks) -> str:
         cells = c.row()
         cls = {True: ' class="ok"', False: ' class="failed"', None: ""}[c.passed]
         rows.append("<tr>" + "".join(f'<td{" class=num" if 0 < k < 5 else ""}>'
-                                     f"{_inline(x)}</td>" for k, x in enumerate(cells[:-1]))
+                                     f"{inline(x)}</td>" for k, x in enumerate(cells[:-1]))
                     + f"<td{cls}>{cells[-1]}</td></tr>")
     return (f'<table class="checks"><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}'
             "</tbody></table>")
@@ -527,11 +389,11 @@ class Document:
         """The whole report as one self-contained HTML page."""
         toc = "".join(f'<li><a href="#{html.escape(s.key)}">{html.escape(s.title)}</a></li>'
                       for s in self.sections)
-        intro = f"<p>{_inline(self.intro)}</p>" if self.intro else ""
+        intro = f"<p>{inline(self.intro)}</p>" if self.intro else ""
         body = "\n".join(s._html() for s in self.sections)
         return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
                 f'<meta name="viewport" content="width=device-width, initial-scale=1">'
-                f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
+                f"<title>{html.escape(self.title)}</title><style>{CSS}</style></head><body>"
                 f"<h1>{html.escape(self.title)}</h1>{intro}<nav><h2>Contents</h2><ol>{toc}"
                 f"</ol></nav>\n{body}\n</body></html>\n")
 
