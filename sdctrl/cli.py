@@ -136,9 +136,14 @@ def _diagnose(args) -> int:
         report = d.report(figure=os.path.basename(args.figure))
     with open(args.report, "w", encoding="utf-8") as fh:
         fh.write(report)
+    from sdctrl.story.diagnosing import diagnosis_page
+
+    page = os.path.splitext(args.report)[0] + ".html"        # the same, one self-contained page
+    with open(page, "w", encoding="utf-8") as fh:
+        fh.write(diagnosis_page(d, args.model, args.data).to_html())
     print(f"error (complex logLS, 3.12): {d.error_before:.4g} before, {d.error_after:.4g} after")
     print(d.table() if d.effects else "no effect added: the model matches the data")
-    print(f"report written to {args.report}")
+    print(f"report written to {args.report} and {page}")
     return 0
 
 
@@ -148,7 +153,9 @@ def _diagnose_parser(sub) -> None:
     p.add_argument("model", help="model saved by sdctrl.save (.npz)")
     p.add_argument("data", help="measured FRFs (.uff/.unv, or .npz saved by sdctrl.save)")
     p.add_argument("--fe", help="FE model saved by sdctrl.save (.npz): physical candidates")
-    p.add_argument("--report", default="diagnosis.md", help="report (default diagnosis.md)")
+    p.add_argument("--report", default="diagnosis.md",
+                   help="markdown report (default diagnosis.md; an HTML page with the same "
+                   "stem is written next to it)")
     p.add_argument("--figure", help="also draw the figure there (e.g. diagnosis.png)")
     p.add_argument("--max-effects", type=int, default=4, help="at most this many effects")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

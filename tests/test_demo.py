@@ -237,3 +237,20 @@ def test_missing_diagnose_is_reported_as_not_available(monkeypatch):
     doc = Document("t", "intro")
     commands._sections(doc, log, {})
     assert "This step is not available: sdctrl.diagnose is not in this version" in doc.to_html()
+
+
+def test_diagnose_command_on_the_demo_outputs(demo, tmp_path):
+    """A user's next step: `sdctrl diagnose` on the saved updated model, the second test and
+    the FE model, as the README says: the planted mass found again, markdown + HTML page."""
+    out = demo["out"]
+    proc = _sdctrl("diagnose", str(out / "updated_model.npz"), str(out / "retest.uff"), "--fe",
+                   str(out / "fe_updated.npz"), "--report", str(tmp_path / "d.md"), "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    row = re.search(r"\| 1 \| mass_change \| N14 \| dm = (\S+) kg", proc.stdout)
+    assert row and float(row.group(1)) == pytest.approx(1.0, rel=0.05)
+    page = (tmp_path / "d.html").read_text(encoding="utf-8")
+    assert page.startswith("<!DOCTYPE html>") and "<script" not in page
+    assert "updated_model.npz against retest.uff" in page and "mass_change" in page
+    m = re.search(r'<figure id="fig-diagnosis"><img alt="diagnosis" src="data:image/png;base64,'
+                  r'([A-Za-z0-9+/=]+)"', page)
+    assert m and len(m.group(1)) > 20_000

@@ -15,7 +15,8 @@ import numpy as np
 
 from sdctrl.report import Check
 
-__all__ = ["PLANTED", "Diagnosed", "Planted", "diagnose_retest", "planted_structure"]
+__all__ = ["PLANTED", "Diagnosed", "Planted", "diagnose_retest", "diagnosis_page",
+           "planted_structure"]
 
 #: tolerance on the fitted size of the planted effect (1% noise)
 SIZE_TOL = 0.05
@@ -232,3 +233,39 @@ def diagnose_retest(test, update, noise: float | None = None, seed: int | None =
     diagnosis = sdctrl.diagnose(model, frf2, fe=update.result.fe, executor=executor,
                                 progress=progress)
     return Diagnosed(frf2, model, diagnosis, planted)
+
+
+def diagnosis_page(diagnosis, model_path: str, data_path: str):
+    """The HTML report of ``sdctrl diagnose``: the markdown report and its figure embedded.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        Output of :func:`sdctrl.diagnose`.
+    model_path, data_path : str
+        The files diagnosed (named in the title).
+
+    Returns
+    -------
+    sdctrl.report.Document
+        One section; ``.to_html()`` is a self-contained page.
+    """
+    import os
+
+    from sdctrl.plot import diagnosis as figure
+    from sdctrl.report import Document
+    from sdctrl.story.runner import agg_backend
+
+    agg_backend()
+    d = diagnosis
+    doc = Document(f"sdctrl diagnose: {os.path.basename(model_path)} against "
+                   f"{os.path.basename(data_path)}",
+                   "The residual between the model and the measured FRFs traced to the effects "
+                   "the model lacks, their fitted sizes (SI units) and the error (complex logLS, "
+                   "3.12) before and after.")
+    s = doc.section("diagnosis", "Diagnosis")
+    s.markdown(d.report())
+    if d.frf is not None and d.initial is not None:
+        s.figure(figure(d), "Data, model before and after the corrections at the worst "
+                 "channel, residual per line, and residual maps before/after.", "diagnosis")
+    return doc
