@@ -37,13 +37,18 @@ def test_notebook_runs(notebook, tmp_path, monkeypatch):
     nbclient = pytest.importorskip("nbclient")
     for k, v in _env().items():
         monkeypatch.setenv(k, v)
+    monkeypatch.delenv("MPLBACKEND")          # the kernel's own inline backend, as in Jupyter
     nb = nbformat.read(notebook, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})
     client.execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    # a story with narrative and figures: each figure shown once (no repeated image)
+    images = [o["data"]["image/png"] for o in outputs if "image/png" in o.get("data", {})]
+    assert images and len(set(images)) == len(images)
+    assert nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# ")
     # progress bars in a notebook without ipywidgets: plain text, no "IProgress not found"
-    text = "\n".join(o.get("text", "") for c in nb.cells if c.cell_type == "code"
-                     for o in c.get("outputs", []) if o.get("output_type") == "stream")
+    text = "\n".join(o.get("text", "") for o in outputs if o.get("output_type") == "stream")
     assert "IProgress not found" not in text and "TqdmWarning" not in text
 
 
