@@ -1,153 +1,136 @@
-"""Benchmark of complex-mode identification (issue 4).
+"""Benchmark of ``sd.identify`` against sdypy-EMA (LSCF + LSFD) and against a previous
+version of sdctrl, in one process (issue 14).
 
-Plain script: ``python benchmarks/bench_identify.py [--quick]``.  Prints
+Plain script::
 
-1. the two pole optimisers (thesis sign-gradient 3.19 vs variable projection) from the
-   same initial poles: wall time, cost evaluations, pole errors;
-2. sdctrl ``identify`` (no poles given) vs sdypy-EMA LSCF + LSFD (given the true
-   frequencies to pick its stable poles, which favours it) on the same data in one run:
-   a single-reference set, and a MIMO set fitted by us at once and by EMA once per
-   actuator; wall times and pole errors, as ratios;
-3. scale: 250/500/1000 sensors x 3 references x 4000 lines, 20 modes (data compressed
-   to a real basis before the pole search): wall time and time per sensor;
-4. automatic pole selection on noisy data (no poles given): the package demo chain
-   (accelerations with a noise floor), the 10-mode set at 1% noise and the testbed at
-   1%/3% noise, per noise draw: in-band poles found, missed and spurious, wall time.
+    python benchmarks/bench_identify.py [--runs 5] [--before main] [--cases ema,10x1,...]
+
+Cases (``--cases``, default all):
+
+``ema``      EMA's own ground: 28 outputs x 1 input x 2000 lines, 10 modes, noise-free
+             receptance;
+``10x1``     the 10-mode set of the tests, first actuator, 1% noise (band 20-60 Hz);
+``10x3``     the same set, three actuators (EMA: one fit per actuator, times summed);
+``testbed``  ``sd.testbed_frf(n=1500, noise=0.01)``, all sensors x 6 shakers (EMA x 6);
+``scale``    1000 sensors x 3 references x 4000 lines, 20 modes, 0.5% noise (EMA x 3).
+
+For every case the three fits (previous sdctrl, this sdctrl, EMA) are alternated run by
+run (the machine's load drifts) and the medians over ``--runs`` runs are printed: wall
+and CPU times, the ratios sdctrl/EMA and sdctrl/before, and the worst relative frequency
+and damping errors over the true in-band modes.  EMA is given the true frequencies to
+pick its stable poles (which favours it); sdctrl is given no poles.  EMA uses polynomial
+order 40 (10-mode cases) or 60 (testbed, scale), and is run ``--ema-runs`` times on the
+scale case (its LSCF loops over outputs and orders in Python).
+
+``--before REF`` imports the package of git revision ``REF`` (e.g. ``main``) under the
+name ``sdctrl_before`` (``git archive`` into a temporary directory, names rewritten), so
+that both versions run in the same process on the same data.
 
 sdypy-EMA (``pip install sdypy-ema``) is only needed here, not by sdctrl or its tests.
 """
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import importlib
+import io
 import os
+import re
+import subprocess
 import sys
+import tempfile
 import time
 import warnings
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 import sdctrl as sd
-from sdctrl.identification import IdentificationWarning
 from sdctrl.identification.complex_modes import frf_array
 
-warnings.simplefilter("ignore", IdentificationWarning)
+warnings.simplefilter("ignore")
 
 
-def ten_mode(noise, seed, df=0.05):
-    from test_identify import ten_mode as tm
-
-    return tm(noise=noise, seed=seed, df=df)
-
-
-def pole_errors(freq_est, zeta_est, f_true, z_true):
-    """Relative frequency and damping errors of the estimate closest to each true mode."""
-    freq_est = np.asarray(freq_est, float)
-    fe, ze = [], []
-    for f, z in zip(f_true, z_true):
-        if freq_est.size == 0:
-            fe.append(np.inf)
-            ze.append(np.inf)
-            continue
-        i = int(np.argmin(np.abs(freq_est - f)))
-        fe.append(abs(freq_est[i] / f - 1))
-        ze.append(abs(zeta_est[i] / z - 1))
-    return np.array(fe), np.array(ze)
-
-
-def bench_optimizers():
-    from test_identify import F_TRUE, IN_BAND, Z_TRUE, _truth
-
-    lam, _ = _truth()
-    lam0 = (lam.real * 1.3) + 1j * lam.imag * (1 + 1e-3)      # 0.1% and 30% off
-    strong = IN_BAND & (np.arange(10) != 6)                     # in band, not the local mode
-    for noise in (0.0, 0.01):
-        print(f"\n== pole optimisers from the same initial poles (0.1% / 30% off), 10-mode "
-              f"MIMO set (10 x 3, 801 lines, {noise:.0%} noise) ==")
-        frf, _, _ = ten_mode(noise, 0)
-        res = {}
-        for opt in ("gradient", "varpro"):
-            t0 = time.perf_counter()
-            cm = sd.identify(frf, poles=lam0, band=(20, 60), optimizer=opt, progress=False)
-            dt = time.perf_counter() - t0
-            fe, ze = pole_errors(cm.frequency, cm.damping, F_TRUE[strong], Z_TRUE[strong])
-            fl, zl = pole_errors(cm.frequency, cm.damping, F_TRUE[[6]], Z_TRUE[[6]])
-            res[opt] = dt
-            print(f"{opt:9s} time {dt:6.3f} s  evaluations {cm.info['nfev']:5d}  strong modes: "
-                  f"max freq err {fe.max():.1e}, max damping err {ze.max():.1e};  local mode: "
-                  f"{fl[0]:.1e}, {zl[0]:.1e};  cost {cm.cost:.3e}")
-        print(f"time ratio gradient/varpro: {res['gradient'] / res['varpro']:.1f}")
+# --- the previous version of the package, imported under another name -------------------
+def load_before(ref: str):
+    """sdctrl of git revision ``ref`` imported as ``sdctrl_before``."""
+    tmp = tempfile.mkdtemp(prefix="sdctrl_before_")
+    arch = subprocess.run(["git", "-C", ROOT, "archive", ref, "sdctrl"], check=True,
+                          capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", tmp], input=arch, check=True)
+    src = os.path.join(tmp, "sdctrl")
+    dst = os.path.join(tmp, "sdctrl_before")
+    os.rename(src, dst)
+    pat = re.compile(r"\bsdctrl\b")
+    for base, _dirs, files in os.walk(dst):
+        for fn in files:
+            if fn.endswith(".py"):
+                path = os.path.join(base, fn)
+                with open(path) as fh:
+                    text = fh.read()
+                with open(path, "w") as fh:
+                    fh.write(pat.sub("sdctrl_before", text))
+    sys.path.insert(0, tmp)
+    return importlib.import_module("sdctrl_before")
 
 
-def _ema_fit(H_out_by_freq, freq, band, approx, form="receptance", order=40, f_window=4):
-    from sdypy import EMA
+# --- data: arrays, wrapped into each package's FRF -----------------------------------------
+class Case:
+    def __init__(self, name, freq, H, band, lam_true, quantity="displacement",
+                 ema_form="receptance", ema_order=40, collocated=None):
+        self.name, self.freq, self.H, self.band = name, freq, H, band
+        self.lam = lam_true
+        self.quantity, self.ema_form, self.ema_order = quantity, ema_form, ema_order
+        self.collocated = collocated
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        m = EMA.Model(frf=H_out_by_freq, freq=freq, lower=band[0], upper=band[1],
-                      pol_order_high=order, frf_form=form)
-        m.get_poles(method="lscf", show_progress=False)
-        m.select_closest_poles(list(approx), f_window=f_window)
-        m.get_constants(method="lsfd")
-    return np.asarray(m.nat_freq), np.asarray(m.nat_xi)
-
-
-def bench_ema():
-    from test_identify import F_TRUE, IN_BAND, Z_TRUE
-
-    print("\n== sdctrl identify vs sdypy-EMA LSCF+LSFD (10-mode set, 1% noise) ==")
-    try:
-        import sdypy.EMA  # noqa: F401
-    except ImportError as exc:
-        print(f"sdypy-EMA not available ({exc}); install it with `pip install sdypy-ema` "
-              "to run this comparison")
-        return
-    frf, _, _ = ten_mode(0.01, 0)
-    band = (20.0, 60.0)
-    ft, zt = F_TRUE[IN_BAND], Z_TRUE[IN_BAND]
-    rows = []
-    # single reference: actuator 0 only (10 x 1)
-    one = frf.select(actuators=[0])
-    t0 = time.perf_counter()
-    cm = sd.identify(one, band=band, progress=False)
-    t_ours = time.perf_counter() - t0
-    fe_o, ze_o = pole_errors(cm.frequency, cm.damping, ft, zt)
-    t0 = time.perf_counter()
-    f_e, z_e = _ema_fit(one.H[:, :, 0].T, one.freq, band, ft)
-    t_ema = time.perf_counter() - t0
-    fe_e, ze_e = pole_errors(f_e, z_e, ft, zt)
-    rows.append(("single reference 10x1", t_ours, t_ema, fe_o, fe_e, ze_o, ze_e, cm.n))
-    # MIMO: ours at once, EMA one fit per actuator (errors: worst over the three fits)
-    t0 = time.perf_counter()
-    cm = sd.identify(frf, band=band, progress=False)
-    t_ours = time.perf_counter() - t0
-    fe_o, ze_o = pole_errors(cm.frequency, cm.damping, ft, zt)
-    t_ema = 0.0
-    fe_e = np.zeros(ft.size)
-    ze_e = np.zeros(ft.size)
-    for a in range(frf.H.shape[2]):
-        t0 = time.perf_counter()
-        f_e, z_e = _ema_fit(frf.H[:, :, a].T, frf.freq, band, ft)
-        t_ema += time.perf_counter() - t0
-        fa, za = pole_errors(f_e, z_e, ft, zt)
-        fe_e, ze_e = np.maximum(fe_e, fa), np.maximum(ze_e, za)
-    rows.append(("MIMO 10x3 (EMA x3)", t_ours, t_ema, fe_o, fe_e, ze_o, ze_e, cm.n))
-    print("(EMA is given the true frequencies to pick its stable poles; sdctrl is given "
-          "no poles; errors over the 8 in-band modes, 'local' is the 44 Hz local mode)")
-    for name, to, te, fo, fe, zo, ze, n in rows:
-        loc = 5                                   # index of 44 Hz among in-band modes
-        print(f"{name:22s} time sdctrl {to:6.2f} s  EMA {te:6.2f} s  ratio EMA/sdctrl "
-              f"{te / to:5.2f}   ({n} poles found)")
-        print(f"{'':22s} median freq err sdctrl {np.median(fo):.1e} EMA {np.median(fe):.1e}"
-              f"  ratio {np.median(fe) / np.median(fo):.1f};  max: {fo.max():.1e} vs "
-              f"{fe.max():.1e}")
-        print(f"{'':22s} median damp err sdctrl {np.median(zo):.1e} EMA {np.median(ze):.1e}"
-              f"  ratio {np.median(ze) / np.median(zo):.1f};  max: {zo.max():.1e} vs "
-              f"{ze.max():.1e};  local mode damping err {zo[loc]:.1e} vs {ze[loc]:.1e}")
+    def frf(self, pkg):
+        ns, na = self.H.shape[1:]
+        return pkg.FRF(self.freq, self.H, quantity=self.quantity,
+                       sensors=[f"S{i}" for i in range(ns)],
+                       actuators=[f"A{j}" for j in range(na)], collocated=self.collocated)
 
 
-def scale_data(ns, nf=4000, n_modes=20, seed=0, noise=0.005):
+def ema_case():
+    rng = np.random.default_rng(7)
+    f = np.array([31.0, 58.0, 97.0, 133.0, 171.0, 214.0, 252.0, 301.0, 347.0, 402.0])
+    z = np.array([0.01, 0.006, 0.012, 0.008, 0.015, 0.005, 0.01, 0.009, 0.02, 0.007])
+    w = 2 * np.pi * f
+    lam = -z * w + 1j * w * np.sqrt(1 - z**2)
+    c = rng.standard_normal((10, 28)) + 0.1j * rng.standard_normal((10, 28))
+    b = rng.standard_normal((10, 1)) + 0.1j * rng.standard_normal((10, 1))
+    R = np.einsum("ji,jk->jik", c, b) / (2j * lam.imag)[:, None, None]
+    freq = 0.25 * np.arange(1, 2001)                     # 0.25 .. 500 Hz
+    H = frf_array(lam, R, np.zeros((28, 1)), np.zeros((28, 1)), 2j * np.pi * freq)
+    return Case("EMA case 28x1x2000, noise-free", freq, H, None, lam)
+
+
+def ten_mode_case(n_act):
+    from test_identify import BAND, IN_BAND, ten_mode
+
+    frf, lam, _ = ten_mode(noise=0.01, seed=0)
+    H = frf.H[:, :, :n_act]
+    return Case(f"10x{n_act} 1% noise", frf.freq, H, BAND, lam[IN_BAND],
+                collocated=[(0, 0)])
+
+
+def testbed_case():
+    from sdctrl import testbeds as tb
+
+    frf = sd.testbed_frf(n=1500, noise=0.01, seed=0)
+    lam = np.asarray(tb._modal().poles)
+    lam = lam[lam.imag > 0]
+    f = np.abs(lam) / (2 * np.pi)
+    lam = lam[(f > tb.TESTBED_BAND[0]) & (f < tb.TESTBED_BAND[1])]
+    ns, na = frf.H.shape[1:]
+    return Case(f"testbed {ns}x{na}x1500 1% noise", frf.freq, frf.H, tb.TESTBED_BAND, lam,
+                quantity="acceleration", ema_form="accelerance", ema_order=60)
+
+
+def scale_case(ns=1000, nf=4000, n_modes=20, seed=0, noise=0.005):
     rng = np.random.default_rng(seed)
     f = np.linspace(15, 105, n_modes) * (1 + 0.01 * rng.standard_normal(n_modes))
     z = rng.uniform(0.005, 0.02, n_modes)
@@ -159,71 +142,126 @@ def scale_data(ns, nf=4000, n_modes=20, seed=0, noise=0.005):
     freq = np.linspace(10, 110, nf)
     H = frf_array(lam, R, np.zeros((ns, 3)), np.zeros((ns, 3)), 2j * np.pi * freq)
     H *= 1 + noise * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
-    return sd.FRF(freq, H), f, z
+    return Case(f"scale {ns}x3x{nf}, 20 modes, 0.5% noise", freq, H, None, lam,
+                ema_order=60)
 
 
-def bench_scale(sizes):
-    print("\n== scale: ns sensors x 3 references x 4000 lines, 20 modes, 0.5% noise ==")
-    per = []
-    for ns in sizes:
-        t0 = time.perf_counter()
-        frf, f, z = scale_data(ns)
-        t_gen = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        cm = sd.identify(frf, progress=False)
-        dt = time.perf_counter() - t0
-        fe, ze = pole_errors(cm.frequency, cm.damping, f, z)
-        per.append(dt / ns)
-        print(f"ns={ns:5d}: identify {dt:6.2f} s (data generation {t_gen:5.1f} s), "
-              f"{cm.n} poles (20 true), compressed to rank {cm.info['compress_rank']}, "
-              f"max freq err {fe.max():.1e}, max damping err {ze.max():.1e}, "
-              f"time per sensor {1e3 * dt / ns:.2f} ms")
-    if len(sizes) > 1:
-        print(f"time ratio largest/smallest: {per[-1] * sizes[-1] / (per[0] * sizes[0]):.2f} "
-              f"for a sensor ratio of {sizes[-1] / sizes[0]:.0f}")
+# --- the fits -------------------------------------------------------------------------
+def pole_errors(lam_est, lam_true):
+    """Worst relative frequency and damping errors of the estimates closest to each true
+    pole, and the number of estimates not matched to a true pole (spurious)."""
+    fe, ze = np.abs(lam_est) / (2 * np.pi), -lam_est.real / np.abs(lam_est)
+    ft, zt = np.abs(lam_true) / (2 * np.pi), -lam_true.real / np.abs(lam_true)
+    if fe.size == 0:
+        return np.inf, np.inf, 0
+    i = np.argmin(np.abs(fe[None, :] - ft[:, None]), axis=1)
+    ef = np.max(np.abs(fe[i] / ft - 1))
+    ez = np.max(np.abs(ze[i] / zt - 1))
+    return ef, ez, fe.size - np.unique(i).size
 
 
-def _count(cm, f_true, rtol):
-    f = cm.frequency[cm.in_band]
-    missed = [ft for ft in f_true if f.size == 0 or np.min(np.abs(f - ft)) > rtol * ft]
-    spurious = [x for x in f if np.min(np.abs(np.asarray(f_true) - x)) > rtol * x]
-    return f.size, missed, spurious
+def fit_sdctrl(pkg, case):
+    frf = case.frf(pkg)
+    cm = pkg.identify(frf, band=case.band, progress=False)
+    lam = np.asarray(cm.poles)[np.asarray(cm.in_band)]
+    return lam
 
 
-def bench_noisy_auto(seeds):
-    from test_identify import BAND, F_TRUE, IN_BAND, _chain_demo
-    from test_identify import ten_mode as tm
+def fit_ema(case):
+    from sdypy import EMA
 
-    from sdctrl.testbeds import TESTBED_BAND
+    band = case.band or (case.freq[0], case.freq[-1])
+    approx = np.abs(case.lam) / (2 * np.pi)
+    lam = []
+    for a in range(case.H.shape[2]):             # EMA is single-reference
+        with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")                 # and EMA's progress bars
+            m = EMA.Model(frf=case.H[:, :, a].T, freq=case.freq, lower=band[0],
+                          upper=band[1], pol_order_high=case.ema_order,
+                          frf_form=case.ema_form)
+            m.get_poles(method="lscf", show_progress=False)
+            m.select_closest_poles(list(approx), f_window=4)
+            m.get_constants(method="lsfd")
+        w = 2 * np.pi * np.asarray(m.nat_freq)
+        z = np.asarray(m.nat_xi)
+        lam.append(-z * w + 1j * w * np.sqrt(1 - z**2))
+    return lam
 
-    print("\n== automatic pole selection on noisy data (no poles given) ==")
-    cases = []
-    for seed in seeds:
-        frf, lam = _chain_demo(seed)
-        cases.append((f"demo chain 1% + floor, seed {seed}", frf, None,
-                      np.abs(lam) / (2 * np.pi), 2e-3))
-    for seed in seeds:
-        cases.append((f"10-mode set 1%, seed {seed}", tm(noise=0.01, seed=seed)[0], BAND,
-                      F_TRUE[IN_BAND], 2e-3))
-    f_tb = [9.518, 12.66, 15.786, 15.872, 18.135, 18.63, 27.60, 43.83, 48.42, 52.90,
-            54.73, 56.40]
-    for noise in (0.01, 0.03):
-        for seed in seeds[:2]:
-            cases.append((f"testbed {noise:.0%}, seed {seed}",
-                          sd.testbed_frf(noise=noise, seed=seed), TESTBED_BAND, f_tb, 2e-3))
-    for name, frf, band, f_true, rtol in cases:
-        t0 = time.perf_counter()
-        cm = sd.identify(frf, band=band, progress=False)
-        dt = time.perf_counter() - t0
-        n, missed, spurious = _count(cm, f_true, rtol)
-        print(f"{name:34s}: {n:2d} in-band poles ({len(f_true)} true), missed "
-              f"{[round(x, 2) for x in missed]}, spurious {[round(x, 2) for x in spurious]}, "
-              f"{dt:5.1f} s")
+
+def timed(fn, *args):
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = fn(*args)
+    return out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def run_case(case, impls, runs, ema_runs):
+    times = {k: [] for k in impls}
+    cpu = {k: [] for k in impls}
+    errs = {}
+    for r in range(runs):
+        order = list(impls) if r % 2 == 0 else list(impls)[::-1]
+        for k in order:
+            if k == "EMA" and r >= ema_runs:
+                continue
+            out, dt, dc = timed(impls[k], case)
+            times[k].append(dt)
+            cpu[k].append(dc)
+            if k == "EMA":
+                ef = [pole_errors(lam, case.lam) for lam in out]
+                errs[k] = (max(e[0] for e in ef), max(e[1] for e in ef), 0,
+                           min(lam.size for lam in out))
+            else:
+                e = pole_errors(out, case.lam)
+                errs[k] = e + (out.size,)
+    med = {k: float(np.median(v)) for k, v in times.items() if v}
+    cmed = {k: float(np.median(v)) for k, v in cpu.items() if v}
+    print(f"\n== {case.name} ({case.lam.size} true modes in band) ==")
+    for k in impls:
+        if k not in med:
+            continue
+        ef, ez, spur, n = errs[k]
+        print(f"  {k:7s} wall {med[k]:7.3f} s  cpu {cmed[k]:7.3f} s   max freq err {ef:8.1e}  "
+              f"max damp err {ez:8.1e}  poles {n:3d}  unmatched {spur}")
+    if "sdctrl" in med and "EMA" in med:
+        print(f"  ratio sdctrl/EMA   wall {med['sdctrl'] / med['EMA']:6.2f}  "
+              f"cpu {cmed['sdctrl'] / cmed['EMA']:6.2f}")
+    if "sdctrl" in med and "before" in med:
+        print(f"  ratio sdctrl/before wall {med['sdctrl'] / med['before']:6.2f}  "
+              f"cpu {cmed['sdctrl'] / cmed['before']:6.2f}")
+    return med
+
+
+CASES = {"ema": ema_case, "10x1": lambda: ten_mode_case(1), "10x3": lambda: ten_mode_case(3),
+         "testbed": testbed_case, "scale": scale_case}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--ema-runs", type=int, default=None,
+                    help="EMA runs on the testbed and scale cases (default: 1; --runs elsewhere)")
+    ap.add_argument("--before", default=None, help="git revision to compare with (e.g. main)")
+    ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument("--no-ema", action="store_true")
+    args = ap.parse_args()
+    print(f"load average at start: {os.getloadavg()}  (2 cores)")
+    impls = {}
+    if args.before:
+        before = load_before(args.before)
+        impls["before"] = lambda case: fit_sdctrl(before, case)
+    impls["sdctrl"] = lambda case: fit_sdctrl(sd, case)
+    if not args.no_ema:
+        try:
+            import sdypy.EMA  # noqa: F401
+            impls["EMA"] = fit_ema
+        except ImportError as exc:
+            print(f"sdypy-EMA not available ({exc}): `pip install sdypy-ema`")
+    for name in args.cases.split(","):
+        case = CASES[name]()
+        ema_runs = args.runs if name not in ("scale", "testbed") else (args.ema_runs or 1)
+        run_case(case, impls, args.runs, ema_runs)
+        print(f"  load average: {os.getloadavg()}")
 
 
 if __name__ == "__main__":
-    quick = "--quick" in sys.argv
-    bench_optimizers()
-    bench_ema()
-    bench_scale([100, 250] if quick else [250, 500, 1000])
-    bench_noisy_auto(range(2) if quick else range(6))
+    main()

@@ -38,6 +38,12 @@ _EXPORTS = {
     "testbed": "sdctrl.testbeds",
     "testbed_frf": "sdctrl.testbeds",
     "hybrid": "sdctrl.hybridmodel",
+    # FE model update (chapter IV)
+    "Parameter": "sdctrl.fe.parameters",
+    "update": "sdctrl.updating",
+    "UpdateResult": "sdctrl.updating",
+    "identifiability": "sdctrl.updating",
+    "Identifiability": "sdctrl.updating",
     # uncertainty and closed loop
     "UncertainModel": "sdctrl.uncertainty",
     "robust_stability": "sdctrl.robust",

@@ -63,6 +63,10 @@ def ss_frf(A, B, C, D, omega) -> np.ndarray:
     for i in range(0, s.size, chunk):
         ss = s[i:i + chunk]
         Z = ss[:, None, None] * eye - Hh
-        X = np.linalg.solve(Z, np.broadcast_to(QB, (ss.size,) + QB.shape))
+        try:
+            X = np.linalg.solve(Z, np.broadcast_to(QB, (ss.size,) + QB.shape))
+        except np.linalg.LinAlgError:
+            raise ValueError("the system has a pole on the frequency grid (j w I - A is "
+                             "singular at some freq): move the grid or damp the pole") from None
         out[i:i + chunk] = CQ @ X + D
     return out

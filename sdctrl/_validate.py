@@ -29,19 +29,37 @@ def check_quantity(quantity, name: str = "quantity") -> str:
     return q
 
 
+def _no_text(x, arr: np.ndarray, name: str) -> None:
+    """Refuse text where numbers are expected (numpy would parse ``"1.0"`` silently)."""
+    if isinstance(x, str | bytes) or arr.dtype.kind in "USV":
+        raise TypeError(f"{name} must be a numeric array, got text ({type(x).__name__})")
+    if arr.dtype == object and any(v is None or isinstance(v, str | bytes | dict)
+                                   for v in arr.ravel()):
+        raise TypeError(f"{name} must be a numeric array, got an object array holding "
+                        "None, text or dicts")
+
+
 def as_array(x, name: str, *, ndim: int | tuple[int, ...] | None = None, dtype=float,
              finite: bool = True, shape: tuple | None = None) -> np.ndarray:
     """Copy ``x`` to a numpy array of ``dtype`` and check its rank/shape/finiteness.
 
-    ``shape`` may contain ``None`` for free dimensions.
+    ``shape`` may contain ``None`` for free dimensions.  Text (``"1.0"``), None and
+    complex values where ``dtype`` is real are refused with a ``TypeError``; the returned
+    array is always a new, writeable copy (a read-only input is fine).
     """
     if x is None:
         raise TypeError(f"{name} must be an array, got None")
     try:
+        raw = np.array(x, copy=True)
+    except (TypeError, ValueError) as exc:          # ragged nested sequences
+        raise TypeError(f"{name} must be a numeric array, got {type(x).__name__} that numpy "
+                        f"cannot read as one ({exc})") from None
+    _no_text(x, raw, name)
+    try:
         if dtype is complex:
-            arr = np.array(x, dtype=complex, copy=True)
+            arr = raw.astype(complex)
         else:
-            arr = np.array(x, copy=True)
+            arr = raw
             if np.iscomplexobj(arr) and dtype is float:
                 if np.any(np.imag(arr) != 0):
                     raise TypeError(f"{name} must be real, got complex values")
@@ -62,7 +80,146 @@ def as_array(x, name: str, *, ndim: int | tuple[int, ...] | None = None, dtype=f
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
     if finite and arr.size and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    if not arr.flags.writeable:                     # e.g. a broadcast view: hand out a copy
+        arr = arr.copy()
     return arr
+
+
+def check_scalar(x, name: str, *, positive: bool = False, nonneg: bool = False,
+                 optional: bool = False, allow_inf: bool = False, lo: float | None = None,
+                 hi: float | None = None) -> float | None:
+    """A real number (Python or numpy scalar, or a 0-d array) as a float.
+
+    Parameters
+    ----------
+    x : object
+        The value.
+    name : str
+        Argument name used in error messages.
+    positive, nonneg : bool
+        Require ``x > 0`` / ``x >= 0``.
+    optional : bool
+        Accept (and return) None.
+    allow_inf : bool
+        Accept ``+inf`` (never NaN).
+    lo, hi : float, optional
+        Inclusive bounds.
+
+    Returns
+    -------
+    float or None
+
+    Raises
+    ------
+    TypeError
+        Not a real number (text, complex, bool, a sequence or an array of several values).
+    ValueError
+        NaN, inf (unless allowed) or out of range.
+    """
+    if x is None:
+        if optional:
+            return None
+        raise TypeError(f"{name} must be a real number, got None")
+    if isinstance(x, np.ndarray) and x.ndim == 0:
+        x = x[()]
+    if isinstance(x, bool | np.bool_) or not isinstance(x, int | float | np.integer |
+                                                            np.floating):
+        raise TypeError(f"{name} must be a real number, got {type(x).__name__} {x!r:.40}")
+    v = float(x)
+    if np.isnan(v) or (np.isinf(v) and not (allow_inf and v > 0)):
+        raise ValueError(f"{name} must be a finite number, got {v}")
+    if positive and not v > 0:
+        raise ValueError(f"{name} must be a positive number, got {v:g}")
+    if nonneg and not v >= 0:
+        raise ValueError(f"{name} must be a non-negative number, got {v:g}")
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ValueError(f"{name} must lie in [{lo if lo is not None else '-inf'}, "
+                         f"{hi if hi is not None else 'inf'}], got {v:g}")
+    return v
+
+
+def check_int(x, name: str, *, minimum: int | None = None, maximum: int | None = None,
+              optional: bool = False) -> int | None:
+    """An integer (Python or numpy; an integral float such as ``1e3`` too) as an int.
+
+    Parameters
+    ----------
+    x : object
+        The value.
+    name : str
+        Argument name used in error messages.
+    minimum, maximum : int, optional
+        Inclusive bounds.
+    optional : bool
+        Accept (and return) None.
+
+    Returns
+    -------
+    int or None
+    """
+    if x is None:
+        if optional:
+            return None
+        raise TypeError(f"{name} must be an integer, got None")
+    if isinstance(x, np.ndarray) and x.ndim == 0:
+        x = x[()]
+    if isinstance(x, bool | np.bool_):
+        raise TypeError(f"{name} must be an integer, got bool {x!r}")
+    if isinstance(x, float | np.floating):
+        if not (np.isfinite(x) and float(x).is_integer()):
+            raise TypeError(f"{name} must be an integer, got {x!r}")
+        x = int(x)
+    if not isinstance(x, int | np.integer):
+        raise TypeError(f"{name} must be an integer, got {type(x).__name__} {x!r:.40}")
+    v = int(x)
+    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
+        rng = (f">= {minimum}" if maximum is None else f"<= {maximum}" if minimum is None
+               else f"in [{minimum}, {maximum}]")
+        raise ValueError(f"{name} must be an integer {rng}, got {v}")
+    return v
+
+
+def check_seed(seed, name: str = "seed"):
+    """A random seed: None, a non-negative integer, or a numpy Generator/SeedSequence."""
+    if seed is None or isinstance(seed, np.random.Generator | np.random.SeedSequence):
+        return seed
+    return check_int(seed, name, minimum=0)
+
+
+def check_info(info, name: str = "info") -> dict:
+    """A copy of a diagnostics mapping (``info`` of models and results)."""
+    from collections.abc import Mapping
+
+    if not isinstance(info, Mapping):
+        raise TypeError(f"{name} must be a dict, got {type(info).__name__}")
+    return dict(info)
+
+
+def check_label(x, name: str) -> str:
+    """A non-empty string label."""
+    if not isinstance(x, str | np.str_):
+        raise TypeError(f"{name} must be a string label, got {type(x).__name__} {x!r:.40}")
+    if not str(x):
+        raise ValueError(f"{name} must be a non-empty label")
+    return str(x)
+
+
+def check_finite_result(x, what: str, culprits: str) -> None:
+    """Raise when a computed array holds NaN/inf although its inputs were finite.
+
+    Parameters
+    ----------
+    x : array_like
+        The computed values.
+    what : str
+        What was computed (``"the FRF"``).
+    culprits : str
+        The arguments whose size caused it (named in the message).
+    """
+    a = np.asarray(x)
+    if a.size and not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} overflows (NaN/inf from finite inputs): {culprits} too large "
+                         "or too small in magnitude for double precision; rescale them")
 
 
 def check_square(x, name: str, n: int | None = None, dtype=float) -> np.ndarray:
@@ -173,9 +330,14 @@ def check_band(band, name: str = "band", *, infinite: bool = False) -> tuple[flo
         empty band ``fmin >= fmax``.
     """
     try:
-        lo, hi = (float(v) for v in band)
+        if isinstance(band, str | bytes | dict):
+            raise TypeError("not a pair")
+        vals = tuple(band)
+        if any(isinstance(v, str | bytes | complex | np.complexfloating) for v in vals):
+            raise TypeError("not real numbers")
+        lo, hi = (float(v) for v in vals)
     except (TypeError, ValueError):
-        raise BandError(f"{name} must be a pair (fmin, fmax) in Hz, got {band!r}") from None
+        raise BandError(f"{name} must be a pair (fmin, fmax) in Hz, got {band!r:.60}") from None
     if np.isnan(lo) or np.isnan(hi) or not np.isfinite(lo):
         raise ValueError(f"{name} must hold finite frequencies (Hz), got ({lo}, {hi})")
     if np.isinf(hi) and not infinite:
@@ -286,6 +448,10 @@ def as_statespace(sys, name: str = "sys"):
                         f"with to_statespace(), got {type(sys).__name__}")
     if G.dt not in (0, None):
         raise ValueError(f"{name} must be a continuous-time system, got dt={G.dt}")
+    for m in "ABCD":
+        if not np.all(np.isfinite(np.asarray(getattr(G, m)))):
+            raise ValueError(f"{name} must have finite state-space matrices: {m} holds "
+                             "non-finite values (NaN/inf)")
     return G
 
 

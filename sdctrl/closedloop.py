@@ -19,7 +19,16 @@ from dataclasses import fields
 
 import numpy as np
 
-from sdctrl._validate import as_array, as_statespace, check_band, signal_name, signal_names
+from sdctrl._validate import (
+    as_array,
+    as_statespace,
+    check_band,
+    check_finite_result,
+    check_label,
+    check_scalar,
+    signal_name,
+    signal_names,
+)
 
 __all__ = ["feedback", "modal_damping", "rate_outputs", "rms", "strut_controller",
            "strut_plant"]
@@ -170,7 +179,17 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     S = _psd(psd, B.shape[1])
     _check_stable(A)
     w1, w2 = 2 * np.pi * lo, 2 * np.pi * hi
-    if np.isinf(hi):
+    try:
+        with np.errstate(all="ignore"):
+            return _rms(A, B, C, D, S, w1, w2)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(f"sys: the band integral failed ({exc}); the system is too badly "
+                         "conditioned (scale its states or matrices)") from None
+
+
+def _rms(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
+    """RMS of each output over ``(w1, w2)`` rad/s (``w2`` may be inf); see :func:`rms`."""
+    if np.isinf(w2):
         if np.any(D[:, S > 0] != 0):
             raise ValueError("sys has a feedthrough D: white noise over an infinite band gives "
                              "an infinite RMS; give a finite band")
@@ -186,6 +205,7 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     else:
         var = np.real(np.diag(_band_integral(A, B, C, D, S, w1, w2)))
     var = var / (2 * np.pi)
+    check_finite_result(var, "the RMS", "sys, band or psd")
     return np.sqrt(np.clip(var, 0.0, None))
 
 
@@ -278,7 +298,7 @@ def feedback(plant, controller, sign: float = -1.0, *, control_outputs: bool = F
 
     P = as_statespace(plant, "plant")
     K = as_statespace(controller, "controller")
-    if sign not in (-1, 1, -1.0, 1.0):
+    if check_scalar(sign, "sign") not in (-1.0, 1.0):
         raise ValueError(f"sign must be -1 or +1, got {sign!r}")
     pin, pout = list(P.input_labels), list(P.output_labels)
     kin, kout = list(K.input_labels), list(K.output_labels)
@@ -342,15 +362,15 @@ def rate_outputs(sys, outputs=None):
     if outputs is None:
         sel = list(range(len(names)))
     else:
-        outs = [outputs] if isinstance(outputs, str) else list(outputs)
+        outs = _names(outputs, "outputs")
         sel = []
         for o in outs:
             if o not in names:
                 raise ValueError(f"outputs: unknown output {o!r}, expected one of {names}")
             sel.append(names.index(o))
     if np.any(D[sel] != 0):
-        raise ValueError("outputs: a differentiated output has a feedthrough D, its rate is "
-                         "not proper")
+        raise ValueError("outputs: a differentiated output of sys has a feedthrough D, its "
+                         "rate is not proper")
     Cs = C[sel]
     rates = [f"{names[i]}_dot" for i in sel]
     clash = sorted(set(rates) & (set(names) | set(G.input_labels)))
@@ -388,10 +408,15 @@ def strut_plant(model, b, name: str = "strut"):
     if model.shapes is None:
         raise ValueError("model has no shapes: strut_plant needs a hybrid or FE-derived model")
     N = model.shapes.shape[0]
-    bb = as_array(b, "b", ndim=(1, 2)).reshape(-1, 1) if np.ndim(b) == 1 else \
-        as_array(b, "b", ndim=(1, 2))
+    bb = as_array(b, "b", ndim=(1, 2))
+    bb = bb.reshape(-1, 1) if bb.ndim == 1 else bb
     if bb.shape != (N, 1):
         raise ValueError(f"b must have shape (N={N}, 1), got {bb.shape}")
+    name = check_label(name, "name")
+    taken = {signal_name(lab) for lab in (*model.sensors, *model.actuators)}
+    if signal_name(name) in taken:
+        raise ValueError(f"name {name!r} is already a sensor or actuator label of the model; "
+                         "choose another strut name")
     changes = {"phib": np.hstack([model.phib, model.shapes.T @ bb]),
                "cphi": np.vstack([model.cphi, bb.T @ model.shapes]),
                "actuators": tuple(model.actuators) + (name,),
@@ -424,9 +449,18 @@ def strut_controller(kp=0.0, kv=0.0, name: str = "strut"):
     """
     import control
 
-    kp, kv = float(kp), float(kv)
-    if not (np.isfinite(kp) and np.isfinite(kv)):
-        raise ValueError("kp and kv must be finite gains")
+    kp, kv = check_scalar(kp, "kp"), check_scalar(kv, "kv")
+    name = check_label(name, "name")
     (force,), (extension,) = signal_names([name], [name])
     return control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[kp, kv]],
                       inputs=[extension, f"{extension}_dot"], outputs=[force], name="dstrut")
+
+
+def _names(x, name: str) -> list[str]:
+    """One signal name or a sequence of them."""
+    if isinstance(x, str):
+        return [x]
+    if not isinstance(x, list | tuple) or not all(isinstance(v, str) for v in x):
+        raise TypeError(f"{name} must be a signal name or a sequence of names, got "
+                        f"{type(x).__name__} {x!r:.60}")
+    return list(x)

@@ -18,11 +18,15 @@ from sdctrl._validate import (
     INPUT_SUFFIX,
     QUANTITY_POWER,
     as_array,
+    as_statespace,
     check_band,
     check_collocated,
+    check_finite_result,
     check_freq,
+    check_int,
     check_labels,
     check_quantity,
+    check_scalar,
     readonly,
 )
 
@@ -181,9 +185,11 @@ class FRF:
         k = QUANTITY_POWER[q] - QUANTITY_POWER[self.quantity]
         if k == 0:
             return self._replace()
-        factor = (1j * self.omega) ** k
+        with np.errstate(over="ignore", invalid="ignore"):
+            H = self.H * ((1j * self.omega) ** k)[:, None, None]
+        check_finite_result(H, f"converting H to {q}", "H or freq")
         units = self.units if self.units is None else None
-        return self._replace(H=self.H * factor[:, None, None], quantity=q, units=units)
+        return self._replace(H=H, quantity=q, units=units)
 
     def select(self, sensors=None, actuators=None) -> FRF:
         """Subset of sensors and/or actuators, by index or label.
@@ -235,18 +241,15 @@ class FRF:
             if not isinstance(out, FRF):
                 out = FRF(f, out, quantity=q)
             return out
-        try:
-            import control
-        except ImportError:  # pragma: no cover - control is a hard dependency
-            control = None
-        if control is not None and isinstance(sys, control.TransferFunction):
-            sys = control.tf2ss(sys)
-        if control is None or not isinstance(sys, control.StateSpace):
+        import control
+
+        if not isinstance(sys, control.StateSpace | control.TransferFunction):
             raise TypeError("sys must be a python-control StateSpace/TransferFunction or an "
                             f"sdctrl model with a frf method, got {type(sys).__name__}")
-        if not sys.isctime():
-            raise ValueError("sys must be a continuous-time system (dt = 0)")
-        H = ss_frf(sys.A, sys.B, sys.C, sys.D, 2 * np.pi * f)
+        sys = as_statespace(sys, "sys")
+        with np.errstate(all="ignore"):
+            H = ss_frf(sys.A, sys.B, sys.C, sys.D, 2 * np.pi * f)
+        check_finite_result(H, "sys evaluated at freq", "sys or freq (or a pole on the grid)")
         return cls(f, H, quantity=q, sensors=list(sys.output_labels),
                    actuators=_actuator_labels(sys.input_labels))
 
@@ -267,6 +270,9 @@ def _indices(sel, labels, name) -> list[int]:
         return list(range(len(labels)))
     if isinstance(sel, str | int | np.integer):
         sel = [sel]
+    if not isinstance(sel, Sequence | np.ndarray) or isinstance(sel, bytes):
+        raise TypeError(f"{name} must be a label, an index or a sequence of them, got "
+                        f"{type(sel).__name__}")
     out = []
     for item in sel:
         if isinstance(item, str):
@@ -324,26 +330,25 @@ def estimate_frf(u, y, fs: float, nperseg: int | None = None, *, sensors=None, a
     """
     from scipy import signal
 
-    if not np.isscalar(fs) or not np.isfinite(fs) or fs <= 0:
-        raise ValueError(f"fs must be a positive finite sampling frequency in Hz, got {fs!r}")
-    U = as_array(u, "u", ndim=(1, 2), dtype=float)
-    Y = as_array(y, "y", ndim=(1, 2), dtype=float)
-    if U.ndim == 1:
-        U = U[:, None]
-    if Y.ndim == 1:
-        Y = Y[:, None]
-    nt = U.shape[0]
-    if Y.shape[0] != nt:
-        raise ValueError(f"u and y must have the same number of samples, got {nt} and {Y.shape[0]}")
+    fs = check_scalar(fs, "fs", positive=True)
+    U, Y = _records(u, y)
+    nt, na = U.shape
+    sensors = check_labels(sensors, Y.shape[1], "sensors", "s")
+    actuators = check_labels(actuators, na, "actuators", "a")
     if nperseg is None:
         nperseg = max(min(nt, 64), 2 ** int(np.floor(np.log2(max(nt // 8, 1)))))
-    if not isinstance(nperseg, int | np.integer) or isinstance(nperseg, bool):
-        raise TypeError(f"nperseg must be an integer, got {type(nperseg).__name__}")
+    nperseg = check_int(nperseg, "nperseg")
     if not 8 <= nperseg <= nt:
         raise ValueError(f"nperseg must lie in [8, {nt}] (number of samples), got {nperseg}")
-    na = U.shape[1]
+    if not fs / nperseg > 0:
+        raise ValueError(f"fs is too small ({fs:g} Hz): the line spacing fs/nperseg underflows")
     if nt < 2 * nperseg and na > 1:
         raise ValueError("u, y: too few samples for a MIMO estimate; need several segments")
+    _check_window(window, nperseg)
+    _check_excitation(U, actuators)
+    # scale invariance: spectra of unit-size records, H rescaled at the end (no overflow)
+    su, sy = np.abs(U).max(), np.abs(Y).max() or 1.0
+    U, Y = U / su, Y / sy
     kw = {"fs": fs, "nperseg": int(nperseg), "window": window, "axis": 0, "detrend": "constant"}
     # G_uu[a, b] = E[U_a U_b^*]; scipy's csd(x, y) = E[X^* Y]
     f, Guu = signal.csd(U[:, None, :], U[:, :, None], **kw)   # (nf, na, na) after moveaxis
@@ -354,15 +359,84 @@ def estimate_frf(u, y, fs: float, nperseg: int | None = None, *, sensors=None, a
     Guu = Guu[keep]
     Gyu = Gyu[keep]
     Gyy = np.real(Gyy[keep])
-    if na == 1:
-        H = Gyu / Guu
-        num = np.abs(Gyu[:, :, 0]) ** 2 / np.real(Guu[:, :, 0])
-    else:
-        # H Guu = Gyu  ->  Guu^T H^T = Gyu^T ; Guu is Hermitian
-        H = np.linalg.solve(np.swapaxes(Guu, 1, 2), np.swapaxes(Gyu, 1, 2))
-        H = np.swapaxes(H, 1, 2)
-        num = np.real(np.einsum("fsa,fsa->fs", H, Gyu.conj()))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    _check_cross_spectrum(Guu, f)
+    with np.errstate(all="ignore"):
+        if na == 1:
+            H = Gyu / Guu
+            num = np.abs(Gyu[:, :, 0]) ** 2 / np.real(Guu[:, :, 0])
+        else:
+            # H Guu = Gyu  ->  Guu^T H^T = Gyu^T ; Guu is Hermitian
+            H = np.linalg.solve(np.swapaxes(Guu, 1, 2), np.swapaxes(Gyu, 1, 2))
+            H = np.swapaxes(H, 1, 2)
+            num = np.real(np.einsum("fsa,fsa->fs", H, Gyu.conj()))
         coh = np.where(Gyy > 0, num / Gyy, 0.0)
+        H = H * (sy / su)
+    check_finite_result(H, "the H1 estimate", "y / u (their ratio)")
     coh = np.clip(np.nan_to_num(coh), 0.0, 1.0)
     return FRF(f, H, quantity=quantity, sensors=sensors, actuators=actuators, coherence=coh)
+
+
+def _records(u, y) -> tuple[np.ndarray, np.ndarray]:
+    """Input and output records as (nt, na) and (nt, ns) float arrays."""
+    U = as_array(u, "u", ndim=(1, 2), dtype=float)
+    Y = as_array(y, "y", ndim=(1, 2), dtype=float)
+    U = U[:, None] if U.ndim == 1 else U
+    Y = Y[:, None] if Y.ndim == 1 else Y
+    if U.shape[1] == 0 or Y.shape[1] == 0:
+        raise ValueError(f"u and y must hold at least one channel, got shapes {U.shape}, "
+                         f"{Y.shape}")
+    if Y.shape[0] != U.shape[0]:
+        raise ValueError(f"u and y must have the same number of samples, got {U.shape[0]} and "
+                         f"{Y.shape[0]}")
+    return U, Y
+
+
+def _check_window(window, nperseg: int) -> None:
+    """A scipy window name (or ``(name, parameter)`` tuple) or ``nperseg`` weights."""
+    from scipy import signal
+
+    if isinstance(window, str | tuple):
+        try:
+            signal.get_window(window, nperseg)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"window must be a scipy window name, got {window!r} "
+                             f"({exc})") from None
+        return
+    w = as_array(window, "window", ndim=1)
+    if w.size != nperseg or not np.any(w != 0):
+        raise ValueError(f"window must be a window name or {nperseg} (nperseg) non-zero weights, "
+                         f"got {w.size} values")
+
+
+def _check_excitation(U: np.ndarray, actuators) -> None:
+    """Every input channel excites something, and no two channels are the same signal."""
+    def name(a):
+        return f"{a} ({actuators[a]!r})"
+    Z = U - U.mean(axis=0)
+    size = np.abs(U).max(axis=0)
+    for a in np.flatnonzero(~(np.abs(Z).max(axis=0) > 1e-12 * size)):
+        raise ValueError(f"u: input channel {name(a)} is constant (all zero once its mean is "
+                         "removed): it excites nothing, the FRF of that actuator is undefined")
+    if U.shape[1] > 1:
+        Z = Z / np.abs(Z).max(axis=0)                # unit size: no under/overflow below
+        Z = Z / np.sqrt(np.sum(Z * Z, axis=0))
+        rho = np.abs(Z.T @ Z)
+        i, j = np.triu_indices(U.shape[1], 1)
+        dup = np.flatnonzero(rho[i, j] > 1 - 1e-10)
+        if dup.size:
+            a, b = i[dup[0]], j[dup[0]]
+            raise ValueError(f"u: input channels {name(a)} and {name(b)} are the same signal "
+                             "(up to a factor): the input cross-spectrum is singular and the "
+                             "two actuators cannot be told apart; use independent excitations")
+
+
+def _check_cross_spectrum(Guu: np.ndarray, f: np.ndarray) -> None:
+    """Refuse lines where the input cross-spectrum cannot be inverted."""
+    sv = np.linalg.svd(Guu, compute_uv=False)            # (nf, na)
+    bad = ~(sv[:, -1] > 1e-12 * sv[:, 0])
+    if np.any(bad):
+        lines = f[bad]
+        raise ValueError(f"u: the input cross-spectrum is singular at {lines.size} of {f.size} "
+                         f"lines ({lines[0]:g} Hz{', ...' if lines.size > 1 else ''}): the "
+                         "inputs do not excite these lines independently (a channel without "
+                         "energy there, or channels that are linear combinations of others)")

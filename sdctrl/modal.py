@@ -27,9 +27,12 @@ from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
     as_array,
+    check_finite_result,
     check_freq,
+    check_info,
     check_labels,
     check_quantity,
+    check_scalar,
     check_square,
     readonly,
     signal_names,
@@ -119,11 +122,7 @@ class NormalModeModel:
             if shapes is None:
                 raise ValueError("dofs given without shapes")
             dofs = check_labels(self.dofs, shapes.shape[0], "dofs", "q")
-        omega_c = self.omega_c
-        if omega_c is not None:
-            omega_c = float(omega_c)
-            if not np.isfinite(omega_c) or omega_c <= 0:
-                raise ValueError(f"omega_c must be a positive cut-off in rad/s, got {omega_c}")
+        omega_c = check_scalar(self.omega_c, "omega_c", positive=True, optional=True)
         sets = object.__setattr__
         sets(self, "Omega", readonly(Omega))
         sets(self, "Gamma", readonly(Gamma))
@@ -136,7 +135,7 @@ class NormalModeModel:
         sets(self, "omega_c", omega_c)
         sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
         sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
-        sets(self, "info", dict(self.info))
+        sets(self, "info", check_info(self.info))
 
     # --- display ------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -358,8 +357,10 @@ def frf(model: NormalModeModel, freq, quantity: str = "displacement"):
 
     f = check_freq(freq, "freq")
     q = check_quantity(quantity, "quantity")
-    H = _frf_array(model, 2 * np.pi * f)
-    H = H * ((1j * 2 * np.pi * f) ** QUANTITY_POWER[q])[:, None, None]
+    with np.errstate(all="ignore"):
+        H = _frf_array(model, 2 * np.pi * f)
+        H = H * ((1j * 2 * np.pi * f) ** QUANTITY_POWER[q])[:, None, None]
+    check_finite_result(H, "the FRF", "freq or the model's Omega, Gamma, cphi, phib, E, F")
     return FRF(f, H, quantity=q, sensors=model.sensors, actuators=model.actuators)
 
 
@@ -431,10 +432,20 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
     ``y = F z`` (displacement), ``F z'`` (velocity) or ``F u`` (acceleration): its states
     ``zr``/``dzr`` are double integrators (poles at 0).
     """
+    q = check_quantity(quantity, "quantity")
+    omega_c = check_scalar(omega_c, "omega_c", positive=True, optional=True)
+    with np.errstate(all="ignore"):
+        A, B, C, D, states = _realisation(model, QUANTITY_POWER[q], omega_c)
+    check_finite_result([np.abs(X).max(initial=0.0) for X in (A, B, C, D)], "the realisation",
+                        "omega_c or the model's Omega, Gamma, cphi, phib, E, F")
     import control
 
-    q = check_quantity(quantity, "quantity")
-    k = QUANTITY_POWER[q]
+    inputs, outputs = signal_names(model.sensors, model.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
+
+
+def _realisation(model: NormalModeModel, k: int, omega_c: float | None):
+    """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``k``."""
     n, ns, na = model.n, model.ns, model.na
     Z, I_ = np.zeros((n, n)), np.eye(n)
     A = np.block([[Z, I_], [-model.Omega, -model.Gamma]])
@@ -453,7 +464,7 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
         if k == 0:
             D = D + model.E
         else:
-            wc = float(omega_c) if omega_c is not None else default_omega_c(model)
+            wc = np.float64(omega_c if omega_c is not None else default_omega_c(model))
             # one critically damped correction state pair per actuator:
             # z'' + 2 wc z' + wc^2 z = wc^2 u  ->  z = wc^2/(s+wc)^2 u
             Zc, Ic = np.zeros((na, na)), np.eye(na)
@@ -484,5 +495,4 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
         B = np.vstack([B, Br])
         C = np.hstack([C, Cr])
         states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
-    inputs, outputs = signal_names(model.sensors, model.actuators)
-    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
+    return A, B, C, D, states

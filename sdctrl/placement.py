@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sdctrl._progress import progress_bar
-from sdctrl._validate import check_band
+from sdctrl._validate import check_band, check_scalar
 
 __all__ = ["Candidate", "PlacementStudy", "placement_study"]
 
@@ -199,26 +199,11 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     lo, hi = check_band(band)
     if criterion not in ("rms", "damping"):
         raise ValueError(f"criterion must be 'rms' or 'damping', got {criterion!r}")
-    kv, kp = float(kv), float(kp)
-    if not (np.isfinite(kv) and np.isfinite(kp)):
-        raise ValueError("kv and kp must be finite gains")
+    kv = check_scalar(kv, "kv", nonneg=True)
+    kp = check_scalar(kp, "kp")
     sensors = list(model.sensors)
-    if outputs is None:
-        out_idx = list(range(len(sensors)))
-    else:
-        outs = [outputs] if isinstance(outputs, str) else list(outputs)
-        for o in outs:
-            if o not in sensors:
-                raise ValueError(f"outputs: unknown output {o!r}, expected model sensors")
-        out_idx = [sensors.index(o) for o in outs]
-    if candidates is None:
-        if not fe.elements:
-            raise ValueError("candidates: fe has no elements; give node pairs")
-        candidates = list(fe.elements)
-    else:
-        candidates = [tuple(map(str, c)) for c in candidates]
-        if not candidates or any(len(c) != 2 for c in candidates):
-            raise ValueError("candidates must be a non-empty sequence of (node_a, node_b)")
+    out_idx = [sensors.index(o) for o in _outputs(outputs, sensors)]
+    candidates = _candidates(candidates, fe)
 
     def measure(m):
         G = m.to_statespace()[out_idx, :]
@@ -241,7 +226,11 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
         p = _track(p_open, cl.poles)
         freq = np.abs(p) / (2 * np.pi)
         damp = -p.real / np.abs(p)
-        r = measure(cl)
+        try:
+            r = measure(cl)
+        except ValueError as exc:
+            skipped.append((tuple(bar), f"closed loop with kv={kv:g}, kp={kp:g}: {exc}"))
+            continue
         with np.errstate(invalid="ignore", divide="ignore"):
             red = np.where(rms_open > 0, 1 - r / rms_open, 0.0)
         score = float(np.mean(red)) if criterion == "rms" else float(np.min(damp))
@@ -253,3 +242,40 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     return PlacementStudy(tuple(results), (lo, hi), tuple(sensors[i] for i in out_idx),
                           np.abs(p_open) / (2 * np.pi), -p_open.real / np.abs(p_open),
                           rms_open, kp, kv, criterion, tuple(skipped))
+
+
+def _outputs(outputs, sensors) -> list[str]:
+    """Output labels (default: all sensors)."""
+    if outputs is None:
+        return list(sensors)
+    outs = [outputs] if isinstance(outputs, str) else outputs
+    if not isinstance(outs, list | tuple) or not all(isinstance(o, str) for o in outs):
+        raise TypeError(f"outputs must be a sensor label or a sequence of them, got "
+                        f"{outputs!r:.60}")
+    if not outs:
+        raise ValueError("outputs must name at least one sensor")
+    for o in outs:
+        if o not in sensors:
+            raise ValueError(f"outputs: unknown output {o!r}, expected model sensors")
+    return list(outs)
+
+
+def _candidates(candidates, fe) -> list[tuple[str, str]]:
+    """Node pairs to try (default: every element of ``fe``)."""
+    if candidates is None:
+        if not fe.elements:
+            raise ValueError("candidates: fe has no elements; give node pairs")
+        return list(fe.elements)
+    if isinstance(candidates, str | bytes) or not isinstance(candidates, list | tuple):
+        raise TypeError(f"candidates must be a sequence of (node_a, node_b) pairs, got "
+                        f"{type(candidates).__name__}")
+    out = []
+    for c in candidates:
+        if isinstance(c, str) or not isinstance(c, list | tuple) or len(c) != 2 or not all(
+                isinstance(x, str) for x in c):
+            raise ValueError(f"candidates must be (node_a, node_b) pairs of node names, got "
+                             f"{c!r:.60}")
+        out.append((c[0], c[1]))
+    if not out:
+        raise ValueError("candidates must be a non-empty sequence of (node_a, node_b)")
+    return out

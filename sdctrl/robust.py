@@ -1,19 +1,30 @@
-"""Robust stability of the closed loop over the structured uncertainty of section 5.2.
+"""Robust stability of the closed loop over the structured uncertainty of section 5.2 (5.5).
 
-Mixed real structured singular value: upper bound with D-G scalings (an LMI solved by cvxpy/Clarabel
-per frequency, re-certified by the exact generalised eigenvalue), lower bound by a search over real
-destabilising perturbations (vertices, random directions and a 1-D stability sweep along each).
+The Delta channels of the closed loop ``u = -K y`` read and drive a few signals (modal
+displacements and velocities, modal forces, sensors, actuators; :meth:`UncertainModel.compact_lft`),
+so their response is ``M(s) = L Mc(s) R`` with a small core ``Mc``.  The margin is bracketed by
+
+- a lower bound: the smallest destabilising real Delta found (:func:`sdctrl.mu_lower.destabilise`,
+  the real-parameter form of the mu power iteration), returned so that it can be checked;
+- an upper bound of the mixed real mu (real parameters regularised by a small complex part
+  ``eps``) by D-G scalings (:mod:`sdctrl.mu`), certified on intervals covering the whole
+  frequency axis (:mod:`sdctrl.mu_sweep`): the guaranteed margin holds between grid points too.
 """
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
 from sdctrl._progress import progress_bar
 from sdctrl._statespace import ss_frf
+from sdctrl._threads import single_thread
+from sdctrl._validate import as_statespace, check_freq
+from sdctrl.mu import BlockStructure, Factored, certify_dg, dg_upper, mu_upper
+from sdctrl.mu_lower import destabilise, perturbed_A
+from sdctrl.mu_sweep import FactoredSystem, cheap_bounds, cover
 
 __all__ = [
     "RobustResult",
@@ -32,21 +43,26 @@ class RobustResult:
     Parameters
     ----------
     margin : float
-        1/upper bound of mu: the loop is stable for every Delta up to ``margin`` times the bounds.
+        Guaranteed margin, 1/(upper bound of mu over all frequencies): the loop is stable for
+        every Delta up to ``margin`` times the bounds.
     margin_lower : float
         Size (max-norm of the normalised parameters) of the smallest destabilising Delta found.
     stable : bool
         Nominal closed-loop stability.
     frequency : float
-        Critical frequency (Hz) of the mu upper bound peak.
+        Critical frequency (Hz): where the upper bound of mu is largest.
     worst_delta : ndarray
-        Destabilising normalised parameters found (size ``margin_lower``).
+        The destabilising normalised parameters found (size ``margin_lower``, one per block):
+        ``um.perturbed(worst_delta)`` closed with the controller has a pole on or right of the
+        axis (also :attr:`delta`).
     mu_freq : ndarray
-        Frequencies (Hz) of the mu upper bound curve.
+        Frequencies (Hz) where the upper bound was computed.
     mu : ndarray
-        Mu upper bound at ``mu_freq``.
+        Upper bound of mu at ``mu_freq``.
     info : dict
-        Diagnostics (number of frequencies, lower bound of mu).
+        Diagnostics: ``mu_lower``, ``mu_upper``, ``crossing_frequency`` (Hz, of ``delta``),
+        ``n_freq``, ``n_dg`` (frequencies needing the D-G optimisation), ``certified`` (the
+        certified intervals cover every frequency), ``eps``, ``seconds``.
     """
 
     margin: float
@@ -58,10 +74,67 @@ class RobustResult:
     mu: np.ndarray
     info: dict
 
+    @property
+    def delta(self) -> np.ndarray:
+        """The destabilising normalised parameters found (:attr:`worst_delta`)."""
+        return self.worst_delta
+
     def __repr__(self) -> str:
         return (f"RobustResult(margin={self.margin:.4g}, margin_lower={self.margin_lower:.4g}, "
                 f"stable={self.stable}, frequency={self.frequency:.4g} Hz, "
                 f"{len(self.worst_delta)} blocks, {len(self.mu_freq)} frequencies)")
+
+
+def _controller(um, controller):
+    """Validated ``(Ak, Bk, Ck, Dk)`` of a continuous-time controller from outputs to inputs."""
+    if not hasattr(um, "compact_lft"):
+        raise TypeError(f"um must be an UncertainModel (sdctrl.uncertainty.uncertain), "
+                        f"got {type(um).__name__}")
+    controller = as_statespace(controller, "controller")
+    m = um.model
+    if (controller.ninputs, controller.noutputs) != (m.ns, m.na):
+        raise ValueError(f"controller must map the model's {m.ns} outputs to its {m.na} inputs, "
+                         f"got a {controller.ninputs}-input {controller.noutputs}-output system")
+    nom = um.nominal
+    for got, want, side in ((controller.input_labels, nom.output_labels, "inputs"),
+                            (controller.output_labels, nom.input_labels, "outputs")):
+        if set(got) & set(want) and list(got) != list(want):
+            raise ValueError(f"controller {side} are named {list(got)} but must be the model's "
+                             f"{'outputs' if side == 'inputs' else 'inputs'} {list(want)} in "
+                             "that order")
+    mats = [np.asarray(x, float).reshape(s) for x, s in zip(
+        (controller.A, controller.B, controller.C, controller.D),
+        ((controller.nstates,) * 2, (controller.nstates, m.ns), (m.na, controller.nstates),
+         (m.na, m.ns)))]
+    if not all(np.all(np.isfinite(x)) for x in mats):
+        raise ValueError("controller has non-finite (NaN or inf) gains")
+    return mats
+
+
+def _closed_loop(um, controller, perf: bool = False):
+    """Closed-loop Delta channels as a :class:`FactoredSystem` (and the disturbance channels
+    ``d -> y`` with ``u = -K y + d`` when ``perf``)."""
+    Ak, Bk, Ck, Dk = _controller(um, controller)
+    c = um.compact_lft()
+    na, ns, nk, nx = c.B.shape[1], c.C.shape[0], Ak.shape[0], c.A.shape[0]
+    try:
+        F = np.linalg.inv(np.eye(na) + Dk @ c.D)
+    except np.linalg.LinAlgError:
+        raise ValueError("the loop is algebraically singular (I + K(inf) E is singular)") from None
+    Ux = -F @ np.hstack([Dk @ c.C, Ck])          # u = Ux X + Uv v + F d
+    Uv = -F @ Dk @ c.Dyv
+    Yx = np.hstack([c.C, np.zeros((ns, nk))]) + c.D @ Ux
+    Yv = c.Dyv + c.D @ Uv
+    Bu = np.vstack([c.B, np.zeros((nk, na))])
+    By = np.vstack([np.zeros((nx, ns)), Bk])
+    A = np.block([[c.A, np.zeros((nx, nk))], [np.zeros((nk, nx)), Ak]]) + Bu @ Ux + By @ Yx
+    Bc = np.vstack([c.Bv, np.zeros((nk, c.Bv.shape[1]))]) + Bu @ Uv + By @ Yv
+    Cc = np.hstack([c.Cv, np.zeros((c.Cv.shape[0], nk))]) + c.Dvu @ Ux
+    fs = FactoredSystem(A, Bc, Cc, c.Dvu @ Uv, c.L, c.R)
+    if not perf:
+        return fs, c.reps
+    Bd, Dqd = Bu @ F + By @ c.D @ F, c.Dvu @ F
+    return fs, c.reps, (Bd, Dqd, Yx, Yv, c.D @ F)
 
 
 def closed_loop_lft(um, controller):
@@ -77,245 +150,43 @@ def closed_loop_lft(um, controller):
     Returns
     -------
     tuple of ndarray
+        ``M(s) = Cz (sI - A)^-1 Bw + Dzw`` is the response seen by ``Delta`` (channel order).
     """
-    A, Bw, Bu, Cz, Dzu, Cy, Dyw, D = um._lft_matrices()
-    K = controller
-    Ak, Bk, Ck, Dk = (np.atleast_2d(np.asarray(x, float)) for x in (K.A, K.B, K.C, K.D))
-    ns, na = Cy.shape[0], Bu.shape[1]
-    if Dk.shape != (na, ns):
-        raise ValueError(f"controller must map the model's {ns} outputs to its {na} inputs, "
-                         f"got a {Dk.shape[1]}-input {Dk.shape[0]}-output system")
-    nk = Ak.shape[0] if Ak.size else 0
-    nx = A.shape[0]
-    Ak = Ak.reshape(nk, nk)
-    Bk = Bk.reshape(nk, ns)
-    Ck = Ck.reshape(na, nk)
-    F = np.linalg.inv(np.eye(na) + Dk @ D)
-    # u = Ux X + Uw w with X = [x; xk]
-    Ux = F @ np.hstack([-Dk @ Cy, -Ck])
-    Uw = -F @ Dk @ Dyw
-    Yx = np.hstack([Cy, np.zeros((ns, nk))]) + D @ Ux
-    Yw = Dyw + D @ Uw
-    Acl = np.block([[A, np.zeros((nx, nk))], [np.zeros((nk, nx)), Ak]])
-    Acl = Acl + np.vstack([Bu, np.zeros((nk, na))]) @ Ux + np.vstack([np.zeros((nx, ns)), Bk]) @ Yx
-    Bcl = np.vstack([Bw, np.zeros((nk, Bw.shape[1]))]) + np.vstack([Bu, np.zeros((nk, na))]) @ Uw \
-        + np.vstack([np.zeros((nx, ns)), Bk]) @ Yw
-    Ccl = np.hstack([Cz, np.zeros((Cz.shape[0], nk))]) + Dzu @ Ux
-    Dcl = Dzu @ Uw
-    return Acl, Bcl, Ccl, Dcl
+    fs, _ = _closed_loop(um, controller)
+    return fs.A, fs.Bc @ fs.R, fs.L @ fs.Cc, fs.L @ fs.Dc @ fs.R
 
 
-def _frf(A, B, C, D, w):
-    return ss_frf(A, B, C, D, np.asarray(w, float))
+def _start_frequencies(A, freq, w_cross):
+    """Closed-loop modal frequencies and their half-power neighbourhoods, a log grid, extras."""
+    lam = np.linalg.eigvals(A)
+    wn = np.abs(lam)
+    wn = wn[wn > 0]
+    lo, hi = (wn.min() / 10, wn.max() * 10) if wn.size else (1e-2, 1e2)
+    osc = lam[lam.imag > 0]
+    near = (osc.imag[:, None] + (-osc.real)[:, None] * np.array([-2, -1, 0, 1, 2])[None]).ravel()
+    pts = [[0.0], np.geomspace(lo, hi, 24), wn, near[near > 0]]
+    if freq is not None:
+        pts.append(2 * np.pi * np.asarray(freq, float).ravel())
+    if np.isfinite(w_cross):
+        pts.append([w_cross])
+    return np.unique(np.concatenate([np.asarray(p, float) for p in pts]))
 
 
-def certify_dg(M, D, G):
-    """Exact mu upper bound certified by scalings ``(D, G)``: the smallest ``beta`` with
-    ``M^H D M + j(G M - M^H G) - beta^2 D <= 0`` (generalised eigenvalue).
-
-    Parameters
-    ----------
-    M : ndarray (r, r)
-        Complex matrix.
-    D : ndarray (r, r)
-        Hermitian positive definite scaling (block structure of Delta).
-    G : ndarray (r, r)
-        Hermitian scaling, zero on complex blocks.
-
-    Returns
-    -------
-    float
-    """
-    X = M.conj().T @ D @ M + 1j * (G @ M - M.conj().T @ G)
-    X = 0.5 * (X + X.conj().T)
-    lam = sla.eigh(X, 0.5 * (D + D.conj().T), eigvals_only=True)
-    return float(np.sqrt(max(lam[-1], 0.0)))
+def _check_options(eps, rtol, n_directions, freq):
+    eps, rtol = float(eps), float(rtol)
+    if not (np.isfinite(eps) and eps > 0):
+        raise ValueError(f"eps must be a positive regularisation (e.g. 0.005), got {eps}")
+    if not (np.isfinite(rtol) and 0 < rtol < 1):
+        raise ValueError(f"rtol must be in (0, 1), got {rtol}")
+    if isinstance(n_directions, bool) or not isinstance(n_directions, int | np.integer) \
+            or n_directions < 0:
+        raise ValueError(f"n_directions must be an integer >= 0, got {n_directions!r}")
+    return eps, rtol, None if freq is None else check_freq(freq, "freq")
 
 
-def _structure(reps, eps):
-    """Block index lists; reals first then (if eps>0) their complex regularising copies."""
-    idx, k = [], 0
-    for r in reps:
-        idx.append(list(range(k, k + r)))
-        k += r
-    real = [(i, True) for i in idx]
-    cplx = [([k + j for j in i], False) for i in idx] if eps > 0 else []
-    return real + cplx, k
-
-
-def _herm_var(cp, r):
-    Re = cp.Variable((r, r), symmetric=True)
-    Im = cp.Variable((r, r))
-    return Re, Im
-
-
-def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0):
-    """Mixed real mu upper bound of ``M`` for repeated real scalar blocks (D-G scalings).
-
-    Each real ``delta`` is regularised as ``delta + eps*delta_c`` (a small complex part), so the
-    bound is continuous in frequency (conservatism about ``1 + eps``).  ``M`` is scaled to unit norm
-    before the LMI is solved by cvxpy (Clarabel) within a bisection; every returned (D, G) is
-    re-certified by :func:`certify_dg`.
-
-    Parameters
-    ----------
-    M : ndarray (r, r)
-        Complex matrix (closed-loop Delta-channel response at one frequency).
-    reps : sequence of int
-        Repetition of each real scalar block (channel order).
-    eps : float
-        Relative complex regularisation.
-    rtol : float
-        Relative tolerance of the bisection (stopped anyway below ``1e-3 ||M||``).
-    lower : float
-        Value of interest: if the bound is certified below it after one solve, that certificate
-        is returned at once (no bisection); otherwise the bisection searches above it.
-
-    Returns
-    -------
-    bound : float
-        Certified upper bound.
-    scalings : tuple
-        ``(Maug, D, G)`` certifying the bound on the augmented matrix.
-    """
-    import cvxpy as cp
-    M = np.asarray(M, complex)
-    M.shape[0]
-    if eps > 0:
-        Maug = np.block([[M, M], [eps * M, eps * M]])
-    else:
-        Maug = M
-    blocks, _ = _structure(reps, eps)
-    nrm = np.linalg.norm(Maug, 2)
-    if nrm == 0:
-        return 0.0, (Maug, np.eye(Maug.shape[0]), np.zeros(Maug.shape))
-    Ms = Maug / nrm
-    N = Ms.shape[0]
-    # real embedding of Hermitian matrices: H = Re + j Im  <->  [[Re, -Im], [Im, Re]]
-    DRe = cp.Variable((N, N), symmetric=True)
-    DIm = cp.Variable((N, N))
-    GRe = cp.Variable((N, N), symmetric=True)
-    GIm = cp.Variable((N, N))
-    cons = [DIm == -DIm.T, GIm == -GIm.T]
-    mask = np.zeros((N, N))
-    gmask = np.zeros((N, N))
-    for ii, isreal in blocks:
-        for a in ii:
-            for b in ii:
-                mask[a, b] = 1
-                if isreal:
-                    gmask[a, b] = 1
-    cons += [cp.multiply(1 - mask, DRe) == 0, cp.multiply(1 - mask, DIm) == 0,
-             cp.multiply(1 - gmask, GRe) == 0, cp.multiply(1 - gmask, GIm) == 0]
-    Mr, Mi = Ms.real, Ms.imag
-    # X = M^H D M + j(G M - M^H G) - t D
-    Dm = DRe + 0  # noqa
-    # complex products via real parts: (a+jb)(c+jd)
-    def mul(Ar, Ai, Br, Bi):
-        return Ar @ Br - Ai @ Bi, Ar @ Bi + Ai @ Br
-    MhR, MhI = Mr.T, -Mi.T
-    t1r, t1i = mul(DRe, DIm, Mr, Mi)
-    q1r, q1i = mul(MhR, MhI, t1r, t1i)
-    g1r, g1i = mul(GRe, GIm, Mr, Mi)
-    g2r, g2i = mul(MhR, MhI, GRe, GIm)
-    # j*(g1 - g2) = -(g1i - g2i) + j (g1r - g2r)
-    t = cp.Parameter(nonneg=True)
-    Xr = q1r - (g1i - g2i) - t * DRe
-    Xi = q1i + (g1r - g2r) - t * DIm
-    big = cp.bmat([[Xr, -Xi], [Xi, Xr]])
-    Dbig = cp.bmat([[DRe, -DIm], [DIm, DRe]])
-    cons += [0.5 * (big + big.T) << 0, 0.5 * (Dbig + Dbig.T) >> np.eye(2 * N),
-             0.5 * (Dbig + Dbig.T) << 1e6 * np.eye(2 * N)]
-    prob = cp.Problem(cp.Minimize(0), cons)
-
-    def scal():
-        Dv = DRe.value + 1j * DIm.value
-        Gv = GRe.value + 1j * GIm.value
-        Dv = 0.5 * (Dv + Dv.conj().T) * mask
-        Gv = 0.5 * (Gv + Gv.conj().T) * gmask
-        return Dv, Gv
-
-    # initial upper: plain norm (D = I, G = 0) certified = 1
-    best = 1.0
-    best_sc = (np.eye(N), np.zeros((N, N)))
-    lo = 0.0
-    hi = best
-    if lower > 0 and lower / nrm < 1.0:
-        # only values above ``lower`` matter to the caller: one solve certifies "mu <= lower"
-        t.value = (lower / nrm) ** 2
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=cp.CLARABEL)
-            if prob.status in ("optimal", "optimal_inaccurate") and DRe.value is not None:
-                Dv, Gv = scal()
-                cert = certify_dg(Ms, Dv, Gv)
-                if cert < best:
-                    best, best_sc = cert, (Dv, Gv)
-                    hi = cert
-                if cert <= (lower / nrm) * (1 + rtol):
-                    return best * nrm, (Maug, best_sc[0], best_sc[1] * nrm)
-            lo = lower / nrm
-        except (cp.error.SolverError, np.linalg.LinAlgError, ValueError):
-            pass
-    while hi - lo > rtol * hi and hi > 1e-3:  # absolute floor: 1e-3 of ||M||
-        mid = 0.5 * (lo + hi)
-        t.value = mid ** 2
-        try:
-            with warnings.catch_warnings():  # "inaccurate" is handled by the re-certification
-                warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=cp.CLARABEL)
-            ok = prob.status in ("optimal", "optimal_inaccurate") and DRe.value is not None
-        except cp.error.SolverError:
-            ok = False
-        if ok:
-            Dv, Gv = scal()
-            try:
-                cert = certify_dg(Ms, Dv, Gv)
-            except (np.linalg.LinAlgError, ValueError):
-                cert = np.inf
-            if cert < best:
-                best, best_sc = cert, (Dv, Gv)
-            hi = min(max(cert, mid), hi)  # certified value; never trust the solver status alone
-            if cert > mid * (1 + 2 * rtol):
-                lo = mid  # solver claimed feasibility the certificate does not confirm
-        else:
-            lo = mid
-    # (D, G*nrm) certify best*nrm on the unscaled augmented matrix
-    return best * nrm, (Maug, best_sc[0], best_sc[1] * nrm)
-
-
-def _stab_along(Acl, Bcl, Ccl, Dcl, expand, direction, amax, n_grid=40):
-    """Smallest alpha in (0, amax] making the loop unstable along ``direction`` (1-D sweep + bisection)."""
-    def unstable(a):
-        Dl = np.diag(expand @ (a * direction))
-        Mi = np.eye(Dl.shape[0]) - Dl @ Dcl
-        try:
-            X = np.linalg.solve(Mi, Dl @ Ccl)
-        except np.linalg.LinAlgError:
-            return True, 0.0
-        ev = np.linalg.eigvals(Acl + Bcl @ X)
-        k = np.argmax(ev.real)
-        return ev[k].real >= 0, abs(ev[k].imag)
-    grid = np.linspace(0, amax, n_grid + 1)[1:]
-    prev = 0.0
-    for a in grid:
-        u, _ = unstable(a)
-        if u:
-            lo, hi = prev, a
-            for _ in range(40):
-                mid = 0.5 * (lo + hi)
-                if unstable(mid)[0]:
-                    hi = mid
-                else:
-                    lo = mid
-            return hi, unstable(hi)[1]
-        prev = a
-    return np.inf, np.nan
-
-
-def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions: int = 20,
-                     seed: int = 0, progress: bool | None = None) -> RobustResult:
+def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions: int = 20,
+                     seed: int = 0, rtol: float = 0.005, progress: bool | None = None,
+                     executor=None) -> RobustResult:
     """Robust stability margin of ``u = -K y`` over the structured uncertainty (5.5).
 
     Parameters
@@ -323,135 +194,104 @@ def robust_stability(um, controller, freq=None, eps: float = 0.01, n_directions:
     um : UncertainModel
         Uncertain model (see :func:`sdctrl.uncertainty.uncertain`).
     controller : control.StateSpace
-        Controller from the model's outputs to its inputs, closed as ``u = -K y``.
+        Continuous-time controller from the model's outputs to its inputs, closed as
+        ``u = -K y`` (python-control's negative feedback).
     freq : array_like, optional
-        Frequency grid (Hz) for the upper bound; default a coarse log grid around the closed-loop
-        poles.  ``0`` Hz, the lower bound's crossing frequencies and a refinement around the peak are
-        always added.
+        Extra frequencies (Hz) where the upper bound is computed first; the certified intervals
+        cover all frequencies whatever this grid.
     eps : float
-        Complex regularisation of the real parameters (conservatism about ``1 + eps``).
+        Complex regularisation of the real parameters (``delta + eps delta_c``, conservatism
+        about ``1 + eps``); must be positive.
     n_directions : int
-        Random directions tried by the lower-bound search (besides the box vertices).
+        Random sign patterns tried by the lower-bound search (besides one per pole).
     seed : int
         Random seed of the lower-bound search.
-    progress : bool or None
-        Progress bar over the frequencies of the upper bound; None (default) follows
-        ``sdctrl.config.progress`` (shown only on a terminal or in a notebook).
+    rtol : float
+        Relative slack between the largest upper bound computed and the certified level.
+    progress : bool, optional
+        Progress bar over frequencies (default: :mod:`sdctrl.config` policy).
+    executor : concurrent.futures.Executor, optional
+        Runs the frequencies of each round in parallel; results are identical to the serial run.
 
     Returns
     -------
     RobustResult
     """
-    Acl, Bcl, Ccl, Dcl = closed_loop_lft(um, controller)
-    ev = np.linalg.eigvals(Acl)
-    stable = bool(np.all(ev.real < 0))
-    reps = [r for _, r in um.blocks]
+    t0 = time.perf_counter()
+    eps, rtol, freq = _check_options(eps, rtol, n_directions, freq)
+    fs, reps = _closed_loop(um, controller)
     nb = len(reps)
-    expand = np.zeros((sum(reps), nb))
-    k = 0
-    for i, r in enumerate(reps):
-        expand[k:k + r, i] = 1
-        k += r
-    info = {}
+    stable = bool(np.all(np.linalg.eigvals(fs.A).real < 0))
+    info = {"eps": eps}
     if not stable:
-        warnings.warn("nominal closed loop is unstable: robust margin is 0")
+        warnings.warn("nominal closed loop is unstable: robust margin is 0", stacklevel=2)
         return RobustResult(0.0, 0.0, False, 0.0, np.zeros(nb), np.zeros(0), np.zeros(0), info)
     if nb == 0:
-        return RobustResult(np.inf, np.inf, True, np.nan, np.zeros(0), np.zeros(0), np.zeros(0), info)
-    # ---- lower bound: real destabilising perturbations
-    rng = np.random.default_rng(seed)
-    dirs = []
-    if 2 ** nb <= 64:
-        dirs = list(np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T)
-    else:
-        dirs = list(rng.choice([-1.0, 1.0], size=(64, nb)))
-    dirs += list(rng.uniform(-1, 1, size=(n_directions, nb)))
-    best_a, best_dir, cross = np.inf, np.zeros(nb), []
-    amax = 10.0
-    for d in dirs:
-        d = d / np.max(np.abs(d))
-        a, wc = _stab_along(Acl, Bcl, Ccl, Dcl, expand, d, min(amax, best_a))
-        if np.isfinite(a):
-            cross.append(wc)
-            if a < best_a:
-                best_a, best_dir = a, d * a
-    # local refinement of the best direction (hill climbing on the direction, projected to the box)
-    if np.isfinite(best_a) and nb > 1:
-        step = 0.5
-        for _ in range(3 * n_directions):
-            d = best_dir / best_a + step * rng.normal(size=nb)
-            d = np.clip(d, -1, 1)
-            if not np.any(d):
-                continue
-            d = d / np.max(np.abs(d))
-            a, wc = _stab_along(Acl, Bcl, Ccl, Dcl, expand, d, best_a, n_grid=20)
-            if a < best_a:
-                best_a, best_dir = a, d * a
-                cross.append(wc)
-            else:
-                step *= 0.93
-    # ---- upper bound over frequency
-    if freq is None:
-        wn = np.abs(ev)
-        wn = wn[wn > 0]
-        lo_w, hi_w = (wn.min() / 10, wn.max() * 10) if wn.size else (1e-2, 1e2)
-        w = np.concatenate([[0.0], np.geomspace(lo_w, hi_w, 30), wn, np.abs(ev.imag)])
-    else:
-        w = 2 * np.pi * np.asarray(freq, float)
-        w = np.concatenate([[0.0], w])
-    w = np.unique(np.concatenate([w, np.asarray(cross, float)]))
-    mu_lo = 1.0 / best_a if np.isfinite(best_a) else 0.0
+        return RobustResult(np.inf, np.inf, True, np.nan, np.zeros(0), np.zeros(0), np.zeros(0),
+                            info)
+    with single_thread(), progress_bar(desc="mu upper bound", unit="freq",
+                                            enabled=progress) as bar:
+        low = destabilise(fs, reps, n_random=n_directions, seed=seed)
+        mu_lo = 1.0 / low.alpha
+        st = BlockStructure.real_repeated(reps, eps)
+        fsa = fs.augmented(eps)
+        w0 = _start_frequencies(fs.A, freq, low.frequency)
+        if np.isfinite(low.alpha):
+            w_pk = low.frequency
+        else:
+            w_pk = float(w0[np.argmax(cheap_bounds(fsa.core(w0), fsa.L, fsa.R, st)[0])])
+        b_pk, x_pk = dg_upper(Factored(fsa.core(w_pk)[0], fsa.L, fsa.R), st)
+        res = cover(fsa, st, w0, max(b_pk, mu_lo) * (1 + rtol), rtol, executor, bar,
+                    warm=(w_pk, x_pk))
+        if res.level * low.alpha > 1 + 5 * rtol:      # refine the lower bound at the peak
+            better = destabilise(fs, reps, n_random=4 * n_directions, seed=seed + 1,
+                                 near=res.peak_w)
+            if better.alpha < low.alpha:
+                low = better
+    margin = 1.0 / res.level
+    if margin > low.alpha * (1 + 1e-9):
+        warnings.warn(f"certified margin {margin:.6g} above a destabilising perturbation of size "
+                      f"{low.alpha:.6g}: numerical trouble; margin set to the latter",
+                      stacklevel=2)
+        margin = low.alpha
+    if not res.certified:
+        warnings.warn("the frequency axis could not be covered by certified intervals: the "
+                      "margin holds at the computed frequencies only", stacklevel=2)
+    info.update(mu_lower=1.0 / low.alpha, mu_upper=res.level,
+                crossing_frequency=low.frequency / (2 * np.pi), n_freq=len(res.w),
+                n_dg=res.n_dg, certified=res.certified, intervals=len(res.intervals),
+                seconds=time.perf_counter() - t0)
+    return RobustResult(float(margin), float(low.alpha), stable, res.peak_w / (2 * np.pi),
+                        low.delta, res.w / (2 * np.pi), res.bound, info)
 
-    def eval_grid(ws, cur):
-        Ms = _frf(Acl, Bcl, Ccl, Dcl, ws)
-        # cheap upper bound: sqrt(1+eps^2)*||M|| (complex part) -- used to prune frequencies
-        out = np.zeros(len(ws))
-        cheap = np.array([np.linalg.norm(M, 2) for M in Ms]) * np.sqrt(1 + eps ** 2) * (1 + eps)
-        order = np.argsort(-cheap)
-        for i in progress_bar(order, desc="mu upper bound", unit="freq", enabled=progress):
-            if cheap[i] <= cur:
-                out[i] = cheap[i]
-                continue
-            out[i] = mu_upper(Ms[i], reps, eps=eps, lower=cur)[0]
-            cur = max(cur, out[i])
-        return out, cur
-    mu, cur = eval_grid(w, mu_lo)
-    # refine around the peak
-    for _ in range(2):
-        i = int(np.argmax(mu))
-        a = w[max(i - 1, 0)]
-        b = w[min(i + 1, len(w) - 1)]
-        wr = np.linspace(a, b, 7)[1:-1]
-        mr, cur = eval_grid(wr, cur)
-        w = np.concatenate([w, wr])
-        mu = np.concatenate([mu, mr])
-        o = np.argsort(w)
-        w, mu = w[o], mu[o]
-    i = int(np.argmax(mu))
-    mu_up = float(mu[i])
-    margin = 1.0 / mu_up if mu_up > 0 else np.inf
-    if mu_up < mu_lo * (1 - 1e-6):
-        warnings.warn(f"mu upper bound {mu_up:.4g} below lower bound {mu_lo:.4g}: grid missed the "
-                      "peak; margin set to the lower bound's")
-        margin = best_a
-    info.update(n_freq=len(w), mu_lower=mu_lo)
-    return RobustResult(float(margin), float(best_a), stable, float(w[i] / (2 * np.pi)),
-                        best_dir, w / (2 * np.pi), mu, info)
+
+def _sample_gain(fs, chan_block, perf, out, inp, w, d):
+    """``|y_out / d_inp|`` over ``w`` for the block parameters ``d`` (exact LFT closure)."""
+    Bd, Dqd, Yx, Yv, Dyd = perf
+    Psi = fs.R @ (d[chan_block][:, None] * fs.L)
+    X = np.linalg.solve(np.eye(Psi.shape[0]) - Psi @ fs.Dc, Psi)
+    A = perturbed_A(fs, chan_block, d)
+    B = Bd[:, [inp]] + fs.Bc @ X @ Dqd[:, [inp]]
+    C = Yx[[out]] + Yv[[out]] @ X @ fs.Cc
+    D = Dyd[[out]][:, [inp]] + Yv[[out]] @ X @ Dqd[:, [inp]]
+    return np.abs(ss_frf(A, B, C, D, w)[:, 0, 0])
 
 
 def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
-                    n_samples: int = 200, seed: int = 0, progress: bool | None = None) -> dict:
+                    n_samples: int = 200, seed: int = 0, executor=None,
+                    progress: bool | None = None) -> dict:
     """Worst-case closed-loop gain from a plant input disturbance to a plant output over Delta.
 
     The disturbance ``d`` is added to the plant input (``u = -K y + d``); the gain ``|y/d|`` is
-    maximised over the box vertices and random samples of the normalised parameters.
+    maximised over the box vertices (all of them up to 256, else 256 random ones) and random
+    samples of the normalised parameters (a lower estimate of the worst case).
 
     Parameters
     ----------
     um : UncertainModel
         Uncertain model.
     controller : control.StateSpace
-        Controller closed as ``u = -K y``.
+        Continuous-time controller closed as ``u = -K y``.
     output : int
         Plant output index.
     input : int
@@ -462,36 +302,45 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
         Random samples (besides vertices).
     seed : int
         Random seed.
-    progress : bool or None
-        Progress bar over the samples; None (default) follows ``sdctrl.config.progress``.
+    executor : concurrent.futures.Executor, optional
+        Evaluates the samples in parallel (results identical to the serial run).
+    progress : bool, optional
+        Progress bar over samples (default: :mod:`sdctrl.config` policy).
 
     Returns
     -------
     dict
-        ``freq``, ``nominal`` gain, ``worst`` gain per frequency, ``peak``, ``worst_delta``.
+        ``freq``, ``nominal`` gain, ``worst`` gain per frequency, ``peak``, ``delta`` (the
+        normalised parameters of the peak; also under ``worst_delta``).
     """
-    import control
-
-    nb = len(um.blocks)
-    rng = np.random.default_rng(seed)
+    fs, reps, perf = _closed_loop(um, controller, perf=True)
+    m = um.model
+    for name, val, n in (("output", output, m.ns), ("input", input, m.na)):
+        if isinstance(val, bool) or not isinstance(val, int | np.integer) or not 0 <= val < n:
+            raise ValueError(f"{name} must be an index in [0, {n}), got {val!r}")
+    if int(n_samples) < 0:
+        raise ValueError(f"n_samples must be >= 0, got {n_samples}")
     if freq is None:
-        f0 = np.asarray(um.model.frequency, float)
+        f0 = np.asarray(m.frequency, float)
         f0 = f0[f0 > 0] if np.any(f0 > 0) else np.array([1.0])
         freq = np.geomspace(f0.min() / 5, f0.max() * 5, 400)
-    w = 2 * np.pi * np.asarray(freq, float)
-    verts = np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T \
-        if 2 ** nb <= 256 else rng.choice([-1.0, 1.0], size=(256, nb))
-    ds = np.vstack([np.zeros((1, nb)), verts, rng.uniform(-1, 1, (n_samples, nb))])
-    worst = None
-    peak, wd, nom = -np.inf, None, None
-    for d in progress_bar(ds, desc="worst-case gain", unit="sample", enabled=progress):
-        G = um.perturbed(d)
-        cl = control.feedback(G, controller, sign=-1)
-        H = np.abs(ss_frf(cl.A, cl.B, cl.C, cl.D, w)[:, output, input])
-        if nom is None:
-            nom = H
-        worst = H if worst is None else np.maximum(worst, H)
-        if H.max() > peak:
-            peak, wd = H.max(), d
-    return {"freq": np.asarray(freq, float), "nominal": nom, "worst": worst, "peak": float(peak),
-            "worst_delta": wd}
+    freq = check_freq(freq, "freq")
+    w = 2 * np.pi * freq
+    nb = len(reps)
+    chan_block = np.repeat(np.arange(nb), reps)
+    rng = np.random.default_rng(seed)
+    verts = (np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
+             if 2 ** nb <= 256 else rng.choice([-1.0, 1.0], size=(256, nb)))
+    ds = np.vstack([np.zeros((1, nb)), verts, rng.uniform(-1, 1, (int(n_samples), nb))])
+    run = executor.map if executor is not None else map
+    args = [(fs, chan_block, perf, int(output), int(input), w, d) for d in ds]
+    gains = []
+    with single_thread(), progress_bar(total=len(ds), desc="worst-case gain", unit="sample",
+                                       enabled=progress) as bar:
+        for H in run(_sample_gain, *zip(*args)):
+            gains.append(H)
+            bar.update()
+    gains = np.array(gains)
+    k = int(np.argmax(gains.max(axis=1)))
+    return {"freq": np.asarray(freq, float), "nominal": gains[0], "worst": gains.max(axis=0),
+            "peak": float(gains[k].max()), "delta": ds[k], "worst_delta": ds[k]}

@@ -65,7 +65,7 @@ def _dashpots(truss, plates):
             (f"{C['centre']}.y", f"{C['base']}.y", 5.0)]         # damper on plate C
 
 
-def _build():
+def _build(link_stiffness: float = 1.0, plate_mass: float = 1.0):
     from sdctrl.fe.assembly import assemble
 
     truss, plates = _node_names()
@@ -84,7 +84,13 @@ def _build():
                 els.append(("bar", r[k], q[k], "al", "longeron"))
                 a, b = (r[k], q[(k + 1) % 4]) if s % 2 == 0 else (r[(k + 1) % 4], q[k])
                 els.append(("bar", a, b, "al", "diagonal"))
+    materials = dict(_MATERIALS)
+    link = "al"
+    if link_stiffness != 1.0:               # the posts' Young's modulus scaled, mass kept
+        link = "al_link"
+        materials[link] = {**_MATERIALS["al"], "E": _MATERIALS["al"]["E"] * link_stiffness}
     for name, s, m, J, post, h, a in _PLATES:
+        m, J = m * plate_mass, tuple(plate_mass * j for j in J)
         p = plates[name]
         x, ztop = s * _BAY, w / 2
         nodes[p["base"]] = (x, 0.0, ztop)
@@ -94,8 +100,8 @@ def _build():
             els.append(("beam", p["base"], truss[s2][k], "al", "spider"))
         nodes[p["mid"]] = (x, 0.0, ztop + h / 2)
         nodes[p["centre"]] = (x, 0.0, ztop + h)
-        els.append(("beam", p["base"], p["mid"], "al", post))
-        els.append(("beam", p["mid"], p["centre"], "al", post))
+        els.append(("beam", p["base"], p["mid"], link, post))
+        els.append(("beam", p["mid"], p["centre"], link, post))
         els.append(("mass", p["centre"], _CENTRE_FRACTION * m, J))
         mc = (1 - _CENTRE_FRACTION) * m / 4
         for corner, (cx, cy) in zip(p["corners"], _CORNERS):
@@ -108,7 +114,7 @@ def _build():
                 els.append(("spring", f"{truss[s][k]}.{d}", None, _K_SUSPENSION))
     for a, b, c in _dashpots(truss, plates):
         els.append(("dashpot", a, b, c))
-    fe = assemble(nodes, els, _MATERIALS, _SECTIONS, rayleigh=_RAYLEIGH)
+    fe = assemble(nodes, els, materials, _SECTIONS, rayleigh=_RAYLEIGH)
     return fe, truss, plates
 
 
@@ -132,13 +138,20 @@ def _io_sets():
 SHAKERS, SENSORS = _io_sets()
 
 
-@lru_cache(maxsize=1)
-def _cached():
-    fe, _truss, _plates = _build()
+@lru_cache(maxsize=8)
+def _cached(link_stiffness: float = 1.0, plate_mass: float = 1.0):
+    fe, _truss, _plates = _build(link_stiffness, plate_mass)
     return fe
 
 
-def testbed():
+def _factor(x, name: str) -> float:
+    v = float(x)
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name} must be a positive scale factor, got {x!r}")
+    return v
+
+
+def testbed(*, link_stiffness: float = 1.0, plate_mass: float = 1.0):
     """The built-in test article: a suspended truss carrying three plates on flexible posts.
 
     Geometry (SI units, aluminium ``E = 70 GPa``, ``rho = 2700 kg/m^3``):
@@ -190,10 +203,26 @@ def testbed():
     ``Gamma_12 ~ -2.8 rad/s`` for ``Gamma_11 ~ 3.0``, ``Gamma_22 ~ 3.7`` and a frequency
     separation ``2 (w_2 - w_1) ~ 4.7 rad/s``: they are strongly coupled by damping.
 
+    The keyword arguments build a *deliberately wrong* model of the same article, the
+    starting point of FE updates (chapter IV): the structure tested by
+    :func:`testbed_frf` is always the nominal one.  The plate/post links are the six post
+    beams (sections ``post_AB`` and ``post_C``, ``fe.members(section=...)``); the plate
+    masses are the lumped masses and inertias of the plate centre and corner nodes
+    (``N31``-``N35``, ``N38``-``N42``, ``N45``-``N49``); the Rayleigh damping follows
+    the scaled ``M`` and ``K``.
+
+    Parameters
+    ----------
+    link_stiffness : float
+        Factor on the stiffness (Young's modulus) of the post beams, their mass unchanged.
+    plate_mass : float
+        Factor on the lumped plate masses and inertias.
+
     Returns
     -------
     FEModel
-        The (cached, immutable) model with node coordinates and element pairs.
+        The (cached, immutable) model with node coordinates, element pairs and its
+        :class:`~sdctrl.fe.groups.Assembly` record (element groups, lumped masses).
 
     Examples
     --------
@@ -201,8 +230,11 @@ def testbed():
     >>> fe = sd.testbed()
     >>> fe.N
     246
+    >>> wrong = sd.testbed(link_stiffness=0.75, plate_mass=1.25)   # links -25%, plates +25%
+    >>> round(float(wrong.modes(7)[0][6]), 2)          # 9.52 Hz on the nominal model
+    7.95
     """
-    return _cached()
+    return _cached(_factor(link_stiffness, "link_stiffness"), _factor(plate_mass, "plate_mass"))
 
 
 @lru_cache(maxsize=1)

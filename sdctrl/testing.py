@@ -31,7 +31,7 @@ import re
 
 import numpy as np
 
-from sdctrl._validate import as_statespace, check_band
+from sdctrl._validate import as_statespace, check_band, check_scalar
 
 __all__ = ["RMSSnapshot", "assert_rms_matches", "load_snapshot", "record_rms"]
 
@@ -120,11 +120,15 @@ def load_snapshot(snapshot) -> dict:
         p = pathlib.Path(snapshot)
         if not p.is_file():
             raise ValueError(f"snapshot: no such file {str(p)!r}")
-        snap = json.loads(p.read_text())
+        try:
+            snap = json.loads(p.read_text())
+        except (UnicodeDecodeError, ValueError) as exc:
+            raise ValueError(f"snapshot: {str(p)!r} is not a JSON file ({exc})") from None
     else:
         raise TypeError(f"snapshot must be a dict or a JSON file path, got "
                         f"{type(snapshot).__name__}")
-    if snap.get("format") != SNAPSHOT_FORMAT or "rms" not in snap or "band_hz" not in snap:
+    if not isinstance(snap, dict) or snap.get("format") != SNAPSHOT_FORMAT or \
+            "rms" not in snap or "band_hz" not in snap:
         raise ValueError("snapshot is not an sdctrl RMS snapshot (format, band_hz, rms)")
     return snap
 
@@ -165,9 +169,8 @@ def assert_rms_matches(system, snapshot, rtol: float = 1e-6, *, atol: float = 0.
     from sdctrl.closedloop import rms
 
     snap = load_snapshot(snapshot)
-    rtol, atol = float(rtol), float(atol)
-    if not (rtol >= 0 and atol >= 0):
-        raise ValueError(f"rtol and atol must be non-negative, got {rtol}, {atol}")
+    rtol = check_scalar(rtol, "rtol", nonneg=True)
+    atol = check_scalar(atol, "atol", nonneg=True)
     G = _closed(system, controller)
     now = dict(zip(G.output_labels, rms(G, _band_of(snap), snap["psd"])))
     ref = snap["rms"]

@@ -21,9 +21,11 @@ import numpy as np
 
 from sdctrl._statespace import ss_frf
 from sdctrl._util import MAX_ROWS, markdown_table, one_line
-from sdctrl._validate import check_freq, signal_names
+from sdctrl._validate import check_freq, readonly, signal_names
+from sdctrl.multitest import MultiTestResult, multi_test_statistics
 
 __all__ = [
+    "CompactLFT",
     "MultiTestResult",
     "UncertainModel",
     "default_bounds",
@@ -46,6 +48,37 @@ def _bound(arr, shape, name, symmetric):
     if symmetric:
         a = np.maximum(a, a.T)  # one parameter per symmetric pair
     return a
+
+
+@dataclass(frozen=True, eq=False)
+class CompactLFT:
+    """Delta channels of an :class:`UncertainModel` through the signals they read and drive.
+
+    Parameters
+    ----------
+    A, B, C, D : ndarray
+        Nominal plant (displacement outputs), ``x = [p; p']``.
+    Bv, Dyv : ndarray (nx, m), (ns, m)
+        Where the ``m`` driven signals ``v`` enter the states and the outputs.
+    Cv, Dvu : ndarray (p, nx), (p, na)
+        The ``p`` read signals ``q = Cv x + Dvu u``.
+    L, R : ndarray (N, p), (m, N)
+        Channel ``k`` reads ``z_k = L[k] q``; the channels drive ``v = R w``.
+    reps : tuple of int
+        Repetition of each real scalar block (channel order).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    Bv: np.ndarray
+    Dyv: np.ndarray
+    Cv: np.ndarray
+    Dvu: np.ndarray
+    L: np.ndarray
+    R: np.ndarray
+    reps: tuple
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,34 +142,52 @@ class UncertainModel:
         D = np.zeros((ns, na)) if m.E is None else np.array(m.E, float)
         return A, B, C, D
 
-    def _lft_matrices(self):
-        """(A, Bw, Bu, Cz, Dzu, Cy, Dyw, D): w = Delta z closes the loop (exact, affine)."""
+    def compact_lft(self) -> CompactLFT:
+        """The Delta channels through the few signals they read and drive (exact, affine).
+
+        Channel ``k`` reads ``z_k = L[k] q`` from the read signals ``q = Cv x + Dvu u``
+        (modal displacements ``p_j``, velocities ``p'_j``, actuator inputs) and the channel
+        outputs enter as ``v = R w`` in the driven signals (modal force rows, sensor outputs):
+        ``x' = A x + B u + Bv v``, ``y = C x + D u + Dyv v``.  A symmetric pair of ``Gamma`` or
+        ``Omega`` is two channels (``-beta d (e_i e_j^T + e_j e_i^T)``) sharing one scalar.
+        The channel-to-channel response ``L Mc(s) R`` then has the rank of the small core
+        ``Mc`` whatever the number of parameters.
+
+        Returns
+        -------
+        CompactLFT
+        """
         m = self.model
-        n, ns, na = m.n, m.ns, m.na
+        n = m.n
         A, B, C, D = self._matrices()
-        r = sum(p[2] for p in self.params)
-        Bw, Cz = np.zeros((2 * n, r)), np.zeros((r, 2 * n))
-        Dzu, Dyw = np.zeros((r, na)), np.zeros((ns, r))
-        k = 0
-        for name, (kind, i, j), rep, beta in self.params:
+        reads, drives, chans = {}, {}, []
+        for _name, (kind, i, j), rep, beta in self.params:
             if kind in ("Omega", "Gamma"):
                 off = 0 if kind == "Omega" else n
-                if rep == 1:
-                    Bw[n + i, k] = -beta
-                    Cz[k, off + j] = 1.0
-                else:  # beta*d*(e_i e_j^T + e_j e_i^T) = [e_i e_j] d I [e_j e_i]^T
-                    Bw[n + i, k] = -beta
-                    Bw[n + j, k + 1] = -beta
-                    Cz[k, off + j] = 1.0
-                    Cz[k + 1, off + i] = 1.0
+                pairs = [(("f", i), -beta, ("x", off + j))]
+                if rep == 2:
+                    pairs.append((("f", j), -beta, ("x", off + i)))
             elif kind == "b":
-                Bw[n + i, k] = beta
-                Dzu[k, j] = 1.0
-            else:  # "c"
-                Dyw[i, k] = beta
-                Cz[k, j] = 1.0
-            k += rep
-        return A, Bw, B, Cz, Dzu, C, Dyw, D
+                pairs = [(("f", i), beta, ("u", j))]
+            else:
+                pairs = [(("y", i), beta, ("x", j))]
+            for drv, coef, rd in pairs:
+                drives.setdefault(drv, len(drives))
+                reads.setdefault(rd, len(reads))
+                chans.append((drives[drv], coef, reads[rd]))
+        nx, N = 2 * n, len(chans)
+        Bv, Dyv = np.zeros((nx, len(drives))), np.zeros((m.ns, len(drives)))
+        for (kind, i), c in drives.items():
+            (Bv[n + i] if kind == "f" else Dyv[i])[c] = 1.0
+        Cv, Dvu = np.zeros((len(reads), nx)), np.zeros((len(reads), m.na))
+        for (kind, i), r in reads.items():
+            (Cv if kind == "x" else Dvu)[r, i] = 1.0
+        L, R = np.zeros((N, len(reads))), np.zeros((len(drives), N))
+        for k, (c, coef, r) in enumerate(chans):
+            L[k, r] = 1.0
+            R[c, k] = coef
+        return CompactLFT(*(readonly(a) for a in (A, B, C, D, Bv, Dyv, Cv, Dvu, L, R)),
+                          reps=tuple(p[2] for p in self.params))
 
     def lft(self):
         """Linear fractional transformation ``(P, blocks)`` of the uncertain model.
@@ -152,7 +203,9 @@ class UncertainModel:
         """
         import control
 
-        A, Bw, B, Cz, Dzu, C, Dyw, D = self._lft_matrices()
+        c = self.compact_lft()
+        A, B, C, D = c.A, c.B, c.C, c.D
+        Bw, Dyw, Cz, Dzu = c.Bv @ c.R, c.Dyv @ c.R, c.L @ c.Cv, c.L @ c.Dvu
         r = Bw.shape[1]
         m = self.model
         chans = []
@@ -356,7 +409,7 @@ def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainMod
         params.append((f"delta_b_{i}_{j}", ("b", int(i), int(j)), 1, float(dB[i, j])))
     for i, j in zip(*np.nonzero(dC)):
         params.append((f"delta_c_{i}_{j}", ("c", int(i), int(j)), 1, float(dC[i, j])))
-    return UncertainModel(model, dG, dO, dB, dC, params)
+    return UncertainModel(model, readonly(dG), readonly(dO), readonly(dB), readonly(dC), params)
 
 
 def psd_gamma_bound(Gamma, fraction: float = 1.0) -> np.ndarray:
@@ -422,102 +475,3 @@ def default_bounds(model, gamma_fraction: float = 0.5, omega_fraction: float = 0
     """
     return {"dGamma": psd_gamma_bound(model.Gamma, gamma_fraction),
             "dOmega": modal_density_bound(model.Omega, omega_fraction)}
-
-
-@dataclass(frozen=True, eq=False)
-class MultiTestResult:
-    """Mean model and spread from several tests (section 5.2.3).
-
-    Parameters
-    ----------
-    mean : NormalModeModel
-        Mean of the aligned models.
-    std : dict
-        Sample standard deviations of ``Gamma``, ``Omega``, ``phib``, ``cphi``.
-    bounds : dict
-        Keyword arguments for :func:`uncertain` (``k`` times the standard deviations).
-    tables : dict
-        ``gamma_std_over_mean``, ``gamma_pct_pd_bound`` (% of ``sqrt(g_ii g_jj)``),
-        ``omega_std_over_mean``, ``mac`` (MAC of each aligned mode to the reference).
-    aligned : list of NormalModeModel
-        The models with modes reordered and re-signed.
-    """
-
-    mean: object
-    std: dict
-    bounds: dict
-    tables: dict
-    aligned: list
-
-    def __repr__(self) -> str:
-        mac = np.asarray(self.tables.get("mac", np.ones(1)))
-        return one_line("MultiTestResult", [
-            f"{len(self.aligned)} models", f"n={self.mean.n}", f"ns={self.mean.ns}",
-            f"na={self.mean.na}", f"min MAC={mac.min():.3f}" if mac.size else ""])
-
-
-def _align(ref, m):
-    """Reorder and re-sign the modes of ``m`` to match ``ref`` by MAC of ``cphi`` columns."""
-    from scipy.optimize import linear_sum_assignment
-    a, b = np.asarray(ref.cphi), np.asarray(m.cphi)
-    num = np.abs(a.conj().T @ b) ** 2
-    den = np.outer(np.sum(np.abs(a) ** 2, 0), np.sum(np.abs(b) ** 2, 0))
-    mac = num / np.where(den > 0, den, 1.0)
-    _, perm = linear_sum_assignment(-mac)
-    sgn = np.sign(np.real(np.sum(a * b[:, perm], axis=0)))
-    sgn[sgn == 0] = 1.0
-    S = np.diag(sgn)
-    P = np.eye(len(perm))[:, perm]
-    T = P @ S
-    return m.replace(Omega=T.T @ m.Omega @ T, Gamma=T.T @ m.Gamma @ T,
-                     phib=T.T @ m.phib, cphi=m.cphi @ T), mac[np.arange(len(perm)), perm]
-
-
-def multi_test_statistics(models, reference: int = 0, k: float = 1.0) -> MultiTestResult:
-    """Statistics of several identified models of one structure (section 5.2.3).
-
-    Modes are aligned on ``models[reference]`` (order and sign by MAC of ``cphi``), then the mean
-    model and the sample standard deviation of each parameter are computed.
-
-    Parameters
-    ----------
-    models : sequence of NormalModeModel
-        At least two models with the same numbers of modes, sensors and actuators.
-    reference : int
-        Index of the model whose mode order and signs are used.
-    k : float
-        Bounds are ``k`` times the standard deviations.
-
-    Returns
-    -------
-    MultiTestResult
-    """
-    models = list(models)
-    if len(models) < 2:
-        raise ValueError("models must hold at least two NormalModeModels")
-    ref = models[reference]
-    aligned, macs = [], []
-    for m in models:
-        if (m.n, m.ns, m.na) != (ref.n, ref.ns, ref.na):
-            raise ValueError("models must share n, ns, na")
-        a, mac = _align(ref, m)
-        aligned.append(a)
-        macs.append(mac)
-    stack = {key: np.array([getattr(a, key) for a in aligned], float)
-             for key in ("Omega", "Gamma", "phib", "cphi")}
-    mean = {k_: v.mean(0) for k_, v in stack.items()}
-    std = {k_: v.std(0, ddof=1) for k_, v in stack.items()}
-    mean_model = ref.replace(Omega=0.5 * (mean["Omega"] + mean["Omega"].T),
-                             Gamma=0.5 * (mean["Gamma"] + mean["Gamma"].T),
-                             phib=mean["phib"], cphi=mean["cphi"])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g_rel = std["Gamma"] / np.abs(mean["Gamma"])
-        o_rel = std["Omega"] / np.abs(mean["Omega"])
-        pd = np.sqrt(np.outer(np.abs(np.diag(mean["Gamma"])), np.abs(np.diag(mean["Gamma"]))))
-        g_pd = 100.0 * std["Gamma"] / pd
-    np.fill_diagonal(g_pd, np.nan)
-    bounds = {"dGamma": k * std["Gamma"], "dOmega": k * std["Omega"], "db": k * std["phib"],
-              "dc": k * std["cphi"]}
-    tables = {"gamma_std_over_mean": g_rel, "gamma_pct_pd_bound": g_pd,
-              "omega_std_over_mean": o_rel, "mac": np.array(macs)}
-    return MultiTestResult(mean_model, std, bounds, tables, aligned)

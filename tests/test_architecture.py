@@ -40,10 +40,15 @@ ROOT = pathlib.Path(sd.__file__).resolve().parent
 ORDER = [
     "sdctrl.config", "sdctrl._validate", "sdctrl._util", "sdctrl._progress", "sdctrl._threads",
     "sdctrl._statespace", "sdctrl._files", "sdctrl._npz",
-    "sdctrl.frf", "sdctrl.io", "sdctrl.uncertainty", "sdctrl._modal_ops", "sdctrl.modal",
-    "sdctrl.identification", "sdctrl.fe", "sdctrl.updating", "sdctrl.predictions",
-    "sdctrl.hybridmodel", "sdctrl.testbeds",
-    "sdctrl.closedloop", "sdctrl.robust", "sdctrl.placement", "sdctrl.testing",
+    "sdctrl.frf", "sdctrl.io", "sdctrl.multitest", "sdctrl.uncertainty", "sdctrl._modal_ops",
+    "sdctrl.modal", "sdctrl.identification", "sdctrl.fe",
+    "sdctrl.updating.costs", "sdctrl.updating.correlation", "sdctrl.updating.expansion",
+    "sdctrl.updating.reanalysis", "sdctrl.updating.basis", "sdctrl.updating.parametric",
+    "sdctrl.updating.measured", "sdctrl.updating.problem", "sdctrl.updating.fit",
+    "sdctrl.updating.sensitivity", "sdctrl.updating.sweep", "sdctrl.updating",
+    "sdctrl.predictions", "sdctrl.hybridmodel", "sdctrl.testbeds", "sdctrl.closedloop",
+    "sdctrl.mu_structure", "sdctrl.mu", "sdctrl.mu_sweep", "sdctrl.mu_lower", "sdctrl.robust",
+    "sdctrl.placement", "sdctrl.testing",
     "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
 ]
 LAST = ("sdctrl.plot", "sdctrl.report", "sdctrl.cli")

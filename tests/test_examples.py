@@ -15,6 +15,8 @@ NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 def _env():
     env = dict(os.environ, MPLBACKEND="Agg", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     env["SDCTRL_QUIET"] = "1"
+    # the code under test, even from a checkout other than the installed one
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
     return env
 
 
@@ -60,7 +62,7 @@ def test_cli_console_script_and_info(tmp_path):
     import sdctrl as sd
 
     frf = sd.FRF(np.linspace(1, 10, 10), np.ones((10, 2, 1)), sensors=["N1.x", "N2.x"],
-                 actuators=["N1.x"])
+                 actuators=["N1.x"], collocated=[(0, 0)])   # stored: never guessed from labels
     sd.write_uff(frf, tmp_path / "t.uff")
     exe = pathlib.Path(sys.executable).with_name("sdctrl")
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "sdctrl.cli"]

@@ -168,3 +168,25 @@ def test_residual_mass_term_is_refused():
     # the door on the model says the same
     with pytest.raises(ValueError, match="low-frequency term F"):
         mF.uncertain(dGamma=np.diag([0.01, 0.0]))
+
+
+def test_compact_lft_reads_and_drives_few_signals():
+    """Every entry of every matrix uncertain on 8 modes: 192 channels, but they read only the
+    modal displacements, velocities and actuator inputs and drive only the modal forces and
+    the sensors, so the channel response is L Mc R with a 19 x 13 core (no 192 x 192 object)."""
+    rng = np.random.default_rng(4)
+    n, ns, na = 8, 5, 3
+    m = NormalModeModel(Omega=np.diag(np.arange(1.0, n + 1) ** 2), Gamma=0.05 * np.eye(n),
+                        cphi=rng.normal(size=(ns, n)), phib=rng.normal(size=(n, na)))
+    um = uncertain(m, dGamma=np.full((n, n), 0.01), dOmega=np.full((n, n), 0.1),
+                   db=np.full((n, na), 0.05), dc=np.full((ns, n), 0.05))
+    c = um.compact_lft()
+    N = sum(r for _, r in um.blocks)
+    assert N == 2 * n * n + n * na + ns * n == 192
+    assert c.L.shape == (N, 2 * n + na) and c.R.shape == (n + ns, N)
+    assert np.all(np.count_nonzero(c.L, axis=1) == 1) and np.all(np.count_nonzero(c.R, axis=0) == 1)
+    P, _ = um.lft()
+    np.testing.assert_array_equal(P.B[:, :N], c.Bv @ c.R)
+    np.testing.assert_array_equal(P.C[:N], c.L @ c.Cv)
+    np.testing.assert_array_equal(P.D[:N, N:], c.L @ c.Dvu)
+    np.testing.assert_array_equal(P.D[N:, :N], c.Dyv @ c.R)

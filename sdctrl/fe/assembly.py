@@ -102,7 +102,10 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
     FEModel
         With DOF labels ``"<node>.<x|y|z|rx|ry|rz>"`` (rotations only at nodes touched
         by a beam or a rotary inertia, or named by a spring/dashpot), node coordinates
-        and the element node pairs (bars, beams, springs and dashpots between nodes).
+        and the element node pairs (bars, beams, springs and dashpots between nodes);
+        ``fe.assembly`` keeps the element groups and lumped masses, from which
+        :meth:`FEModel.stiffness_parameter` and :meth:`FEModel.mass_parameter` rebuild
+        the matrices of any group of elements or nodes (chapter IV parameters, 4.15).
 
     Examples
     --------
@@ -113,6 +116,7 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
     >>> fe.dofs
     ('B.x', 'B.y', 'B.z')
     """
+    from sdctrl.fe.groups import Assembly
     from sdctrl.fe.model import FEModel
 
     names, xyz = _parse_nodes(nodes)
@@ -137,7 +141,8 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
         C = None if C is None else C.tocsr()
     node_xyz = {n: tuple(float(v) for v in xyz[i]) for i, n in enumerate(names)}
     pairs = list(dict.fromkeys(els.pairs))          # unique element node pairs, order kept
-    return FEModel(M, K, C, dofs=dofs, nodes=node_xyz, elements=pairs)
+    record = Assembly.from_parsed(els, xyz, gidx, N, materials, sections, lumped)
+    return FEModel(M, K, C, dofs=dofs, nodes=node_xyz, elements=pairs, assembly=record)
 
 
 # ----------------------------------------------------------------------------------------
@@ -303,8 +308,28 @@ def _get(props: Mapping, key: str, owner: str, default=None):
     raise ValueError(f"{owner} must define {key!r}")
 
 
-def _member_matrices(kind, mp, sc, mat, sec, ori, xa, xb, lumped):
-    """Element stiffness and mass (ne, nd, nd) of a group of bars or beams."""
+def member_matrices(kind, mp, sc, mat, sec, ori, xa, xb, lumped):
+    """Element stiffness and mass (ne, nd, nd) of a group of bars or beams.
+
+    Parameters
+    ----------
+    kind : {"bar", "beam"}
+        Element kind.
+    mp, sc : mapping
+        Material and section properties.
+    mat, sec : str
+        Material and section names (error messages).
+    ori : tuple of float or None
+        Beam orientation vector.
+    xa, xb : ndarray, shape (ne, 3)
+        End node coordinates.
+    lumped : bool
+        Lumped mass for bars.
+
+    Returns
+    -------
+    K, M : ndarray, shape (ne, nd, nd)
+    """
     E = _get(mp, "E", f"material {mat!r}")
     rho = _get(mp, "rho", f"material {mat!r}")
     A = _get(sc, "A", f"section {sec!r}")
@@ -326,7 +351,7 @@ def _assemble_members(groups, xyz, gidx, N, materials, sections, lumped):
     for (kind, mat, sec, ori), conn in groups.items():
         conn = np.asarray(conn)
         xa, xb = xyz[conn[:, 0]], xyz[conn[:, 1]]
-        Ke, Me = _member_matrices(kind, materials[mat], sections[sec], mat, sec, ori, xa, xb,
+        Ke, Me = member_matrices(kind, materials[mat], sections[sec], mat, sec, ori, xa, xb,
                                   lumped)
         nd = 3 if kind == "bar" else 6                   # translations, or all six DOFs
         idx = np.hstack([gidx[conn[:, 0], :nd], gidx[conn[:, 1], :nd]])

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 __all__ = ["DENSE_MAX", "RIGID_RTOL", "check_request", "diagonal_scale", "eigensolve",
-           "rigid_modes"]
+           "rigid_modes", "shift_invert"]
 
 #: eigenvalues below ``RIGID_RTOL * max(diag K / diag M)`` are rigid-body modes
 RIGID_RTOL = 1e-12
@@ -122,13 +122,46 @@ def _dense(K, M, n):
     return lam, phi
 
 
+def shift_invert(K, M, sigma: float) -> spla.LinearOperator:
+    """``(K - sigma M)^-1`` as an operator, from one symmetric-mode sparse LU.
+
+    SuperLU in symmetric mode (minimum degree ordering of ``A + A^T``, diagonal pivots
+    preferred) is an ``L D L^T`` for the symmetric positive definite ``K - sigma M`` of the
+    default negative shift: on FE matrices it fills in about half as much as the
+    unsymmetric ``COLAMD`` factorisation ``eigsh(..., sigma=...)`` does on its own, and
+    factorises several times faster.  Pivoting stays allowed (threshold 0.1), so a shift
+    inside the spectrum (indefinite ``K - sigma M``) is factorised stably too.
+
+    Parameters
+    ----------
+    K, M : sparse matrix, shape (N, N)
+        Stiffness and mass.
+    sigma : float
+        Shift (rad/s)^2.
+
+    Returns
+    -------
+    scipy.sparse.linalg.LinearOperator
+        ``x -> (K - sigma M)^-1 x``.
+    """
+    A = (K - sigma * M).tocsc()
+    try:
+        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                       options={"SymmetricMode": True})
+    except RuntimeError:
+        raise ValueError(f"sigma: K - sigma M is singular at sigma = {sigma:g} (rad/s)^2, "
+                         "a shift on an eigenvalue; choose another shift") from None
+    return spla.LinearOperator(A.shape, matvec=lu.solve, dtype=float)
+
+
 def _sparse(K, M, n, sigma):
     N = M.shape[0]
     v0 = np.random.default_rng(0).standard_normal(N)
-    K = K if sp.issparse(K) else sp.csr_matrix(K)
-    M = M if sp.issparse(M) else sp.csr_matrix(M)
-    lam, phi = spla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=sigma, which="LM",
-                          v0=v0, ncv=min(N, max(2 * n + 1, n + 20)))
+    K = sp.csc_matrix(K)
+    M = sp.csc_matrix(M)
+    lam, phi = spla.eigsh(K, k=n, M=M, sigma=sigma, which="LM", v0=v0,
+                          OPinv=shift_invert(K, M, sigma),
+                          ncv=min(N, max(2 * n + 1, n + 20)))
     # Rayleigh-Ritz clean-up: exact M-orthonormality, accurate eigenvalues
     Kr = phi.T @ (K @ phi)
     Mr = phi.T @ (M @ phi)

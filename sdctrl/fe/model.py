@@ -24,6 +24,7 @@ from sdctrl._validate import as_array, check_freq, check_labels, check_quantity
 from sdctrl.fe import eigen, reduction
 from sdctrl.fe import static as statics
 from sdctrl.fe.eigen import RIGID_RTOL
+from sdctrl.fe.groups import Assembly, ElementGroups
 from sdctrl.fe.validation import check_matrix, check_positive_definite, io_shapes
 
 __all__ = ["FEModel"]
@@ -32,7 +33,7 @@ __all__ = ["FEModel"]
 # ----------------------------------------------------------------------------------------
 # the model
 # ----------------------------------------------------------------------------------------
-class FEModel:
+class FEModel(ElementGroups):
     """Finite element model ``M q'' + C q' + K q = b u``, ``y = c q`` (thesis 2.1, 4.3).
 
     Parameters
@@ -51,12 +52,18 @@ class FEModel:
     elements : sequence of (str, str), optional
         Node-name pairs of the elements (bars, beams, springs) that diagnosis and
         placement studies scan.
+    assembly : Assembly, optional
+        Element groups and lumped masses, as :func:`~sdctrl.fe.assemble` records them:
+        :meth:`stiffness_parameter`, :meth:`mass_parameter` and :meth:`member_matrices`
+        rebuild matrices of element groups from it.  Models built from matrices have none.
 
     Raises
     ------
     ValueError
         Non-square or mismatched matrices, non-symmetric matrices (relative tolerance
-        1e-8), a mass matrix that is not positive definite, NaN/inf, bad labels.
+        1e-8), a mass matrix that is not positive definite (checked here, at
+        construction: one symmetric-mode sparse ``L D L^T`` of M, the cost of one sparse
+        factorisation; diagonal M by its diagonal), NaN/inf, bad labels.
 
     Notes
     -----
@@ -75,10 +82,11 @@ class FEModel:
     array([1.      , 1.732051])
     """
 
-    __slots__ = ("C", "K", "M", "_cache", "_index", "dofs", "elements", "nodes")
+    __slots__ = ("C", "K", "M", "_cache", "_index", "assembly", "dofs", "elements", "nodes")
 
     def __init__(self, M, K, C=None, dofs: Sequence[str] | None = None,
-                 nodes: Mapping | None = None, elements: Sequence | None = None):
+                 nodes: Mapping | None = None, elements: Sequence | None = None, *,
+                 assembly: Assembly | None = None):
         Mv = check_matrix(M, "M")
         N = Mv.shape[0]
         Kv = check_matrix(K, "K", N)
@@ -108,14 +116,17 @@ class FEModel:
                 raise TypeError("elements must be a sequence of (node_a, node_b) pairs")
             elem = []
             for e in elements:
-                if isinstance(e, str) or len(e) != 2:
+                if isinstance(e, str) or not isinstance(e, Sequence | np.ndarray) or len(e) != 2:
                     raise ValueError(f"elements must contain node-name pairs, got {e!r}")
                 a, b = str(e[0]), str(e[1])
                 if node_map is not None and (a not in node_map or b not in node_map):
                     raise ValueError(f"elements: pair {e!r} names a node missing from nodes")
                 elem.append((a, b))
             elem = tuple(elem)
+        if assembly is not None and (not isinstance(assembly, Assembly) or assembly.N != N):
+            raise ValueError(f"assembly must be the Assembly record of a model of N={N} DOFs")
         sets = object.__setattr__
+        sets(self, "assembly", assembly)
         sets(self, "M", Mv)
         sets(self, "K", Kv)
         sets(self, "C", Cv)

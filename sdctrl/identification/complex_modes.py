@@ -15,10 +15,14 @@ from sdctrl._util import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._validate import (
     QUANTITY_POWER,
     as_array,
+    check_band,
     check_collocated,
+    check_finite_result,
     check_freq,
+    check_info,
     check_labels,
     check_quantity,
+    check_scalar,
     readonly,
     signal_names,
 )
@@ -79,12 +83,7 @@ class ComplexModeModel:
             raise ValueError("poles must be stable (Re < 0)")
         E = np.zeros((ns, na)) if self.E is None else as_array(self.E, "E", shape=(ns, na))
         F = np.zeros((ns, na)) if self.F is None else as_array(self.F, "F", shape=(ns, na))
-        if self.in_band is None:
-            ib = np.ones(n, bool)
-        else:
-            ib = np.array(self.in_band, dtype=bool, copy=True).reshape(-1)
-            if ib.size != n:
-                raise ValueError(f"in_band must have {n} entries, got {ib.size}")
+        ib = _mask(self.in_band, n)
         sensors = check_labels(self.sensors, ns, "sensors", "s")
         actuators = check_labels(self.actuators, na, "actuators", "a")
         sets = object.__setattr__
@@ -93,12 +92,13 @@ class ComplexModeModel:
         sets(self, "E", readonly(E))
         sets(self, "F", readonly(F))
         sets(self, "in_band", readonly(ib))
-        sets(self, "cost", float(self.cost))
+        sets(self, "cost", _cost(self.cost))
+        sets(self, "band", None if self.band is None else check_band(self.band, "band"))
         sets(self, "sensors", sensors)
         sets(self, "actuators", actuators)
         sets(self, "collocated", check_collocated(self.collocated, ns, na, "collocated",
                                                   sensors, actuators))
-        sets(self, "info", dict(self.info))
+        sets(self, "info", check_info(self.info))
 
     # --- display --------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -167,8 +167,10 @@ class ComplexModeModel:
         f = check_freq(freq, "freq")
         q = check_quantity(quantity, "quantity")
         s = 2j * np.pi * f
-        H = frf_array(self.poles, self.residues, self.E, self.F, s)
-        H = H * (s ** QUANTITY_POWER[q])[:, None, None]
+        with np.errstate(all="ignore"):
+            H = frf_array(self.poles, self.residues, self.E, self.F, s)
+            H = H * (s ** QUANTITY_POWER[q])[:, None, None]
+        check_finite_result(H, "the FRF", "freq or the model's poles, residues, E, F")
         return FRF(f, H, quantity=q, sensors=self.sensors, actuators=self.actuators,
                    collocated=self.collocated)
 
@@ -207,10 +209,14 @@ class ComplexModeModel:
             Same poles, ``E``, ``F``; residues ``sum_k U_k sigma_k V_k^H`` truncated;
             ``info["singular_value_ratios"]`` holds the ratios of the original residues.
         """
-        mult = np.broadcast_to(np.asarray(multiplicity), (self.n,))
-        if mult.dtype.kind not in "iu" or np.any(mult < 1):
+        m = np.asarray(multiplicity) if not isinstance(multiplicity, str | bytes) else None
+        if m is None or m.dtype.kind not in "iu" or m.ndim > 1 or np.any(m < 1):
             raise ValueError(f"multiplicity must be a positive integer (or one per mode), "
-                             f"got {multiplicity!r}")
+                             f"got {multiplicity!r:.60}")
+        if m.ndim == 1 and m.size != self.n:
+            raise ValueError(f"multiplicity must be one integer or {self.n} (one per mode), "
+                             f"got {m.size}")
+        mult = np.broadcast_to(m, (self.n,))
         U, sv, Vh = np.linalg.svd(self.residues, full_matrices=False)
         R = np.empty_like(self.residues)
         for j in range(self.n):
@@ -250,6 +256,11 @@ class ComplexModeModel:
             dyadic residue ``R~_j`` and ``cpsi[s, j] = psib[j, a]`` for a collocated pair.
         info : dict
             Only with ``return_info=True``.
+
+        Raises
+        ------
+        ValueError
+            No collocated pair, or a mode that no pair sees (its scaling would be NaN).
         """
         import warnings
 
@@ -258,13 +269,16 @@ class ComplexModeModel:
         if not pairs:
             raise ValueError("collocated must name at least one (sensor, actuator) pair "
                              "(the model has none)")
-        cpsi, psib, k = scale_residues(self.residues, pairs)
-        z, single, spread = k["z"], k["single"], k["spread"]
-        zero = np.abs(z) == 0
-        if np.any(zero):
-            warnings.warn("scaled: modes " + ", ".join(str(j) for j in np.flatnonzero(zero)) +
-                          " are not seen by any collocated pair; their scaling is undefined "
-                          "(NaN)", RuntimeWarning, stacklevel=2)
+        spread_tol = check_scalar(spread_tol, "spread_tol", nonneg=True, allow_inf=True)
+        with np.errstate(all="ignore"):
+            cpsi, psib, k = scale_residues(self.residues, pairs)
+        single, spread = k["single"], k["spread"]
+        unseen = ~np.isfinite(psib).all(axis=1) | ~np.isfinite(cpsi).all(axis=0)
+        if np.any(unseen):
+            raise ValueError("collocated: modes " + ", ".join(
+                str(j) for j in np.flatnonzero(unseen)) + " are not seen by any collocated "
+                "pair (zero residue there), so their scaling is undefined; give a pair that "
+                "sees them or drop them from residues")
         if len(pairs) > 1 and np.any(spread > spread_tol):
             bad = np.flatnonzero(spread > spread_tol)
             warnings.warn("scaled: collocated pairs disagree on the scaling of modes "
@@ -324,6 +338,25 @@ class ComplexModeModel:
         ``w_c^2 / (s + w_c)^2`` (2.20), accurate to about ``2 w / w_c`` in the band.
         """
         return to_statespace(self, quantity, omega_c)
+
+
+def _mask(in_band, n: int) -> np.ndarray:
+    """``in_band`` as a boolean mask of ``n`` entries (True, False, 1 or 0 only)."""
+    if in_band is None:
+        return np.ones(n, bool)
+    m = np.array(in_band, copy=True) if not isinstance(in_band, str | bytes) else np.array([])
+    if m.ndim != 1 or m.size != n or m.dtype.kind not in "biuf" or not np.all(
+            (m == 0) | (m == 1)):
+        raise ValueError(f"in_band must be a boolean mask of {n} entries (one per pole), got "
+                         f"{in_band!r:.60}")
+    return m.astype(bool)
+
+
+def _cost(cost) -> float:
+    """A real cost (NaN: unknown)."""
+    if isinstance(cost, float | np.floating) and np.isnan(cost):
+        return float("nan")
+    return check_scalar(cost, "cost", allow_inf=True)     # inf: no fit (e.g. overflow)
 
 
 def scale_residues(residues, pairs):
@@ -422,10 +455,20 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
     control.StateSpace
         Outputs named after the sensors, inputs after the actuators followed by ``_u``.
     """
+    q = check_quantity(quantity, "quantity")
+    omega_c = check_scalar(omega_c, "omega_c", positive=True, optional=True)
+    with np.errstate(all="ignore"):
+        A, B, C, D, states = _realisation(cm, QUANTITY_POWER[q], omega_c)
+    check_finite_result([np.abs(X).max(initial=0.0) for X in (A, B, C, D)], "the realisation",
+                        "omega_c or the model's poles, residues, E, F")
     import control
 
-    q = check_quantity(quantity, "quantity")
-    kq = QUANTITY_POWER[q]
+    inputs, outputs = signal_names(cm.sensors, cm.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
+
+
+def _realisation(cm: ComplexModeModel, kq: int, omega_c: float | None):
+    """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``kq``."""
     ns, na = cm.ns, cm.na
     blocks_A, Cs, Bs, states = [], [], [], []
     U, sv, Vh = np.linalg.svd(cm.residues, full_matrices=False)
@@ -485,12 +528,8 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
         else:
             extra.append((Zi, Bf, Cf, np.zeros((ns, na)), [f"r{a}" for a in range(rf)]))
     if P1 is not None or P2 is not None:
-        if omega_c is None:
-            wc = 10.0 * (np.abs(cm.poles).max() if cm.n else 2 * np.pi * (cm.band or (1, 1))[1])
-        else:
-            wc = float(omega_c)
-            if not np.isfinite(wc) or wc <= 0:
-                raise ValueError(f"omega_c must be a positive cut-off in rad/s, got {omega_c}")
+        wc = np.float64(omega_c if omega_c is not None else 10.0 * (
+            np.abs(cm.poles).max() if cm.n else 2 * np.pi * (cm.band or (1, 1))[1]))
         P1 = np.zeros((ns, na)) if P1 is None else P1
         P2 = np.zeros((ns, na)) if P2 is None else P2
         Ii, Zi = np.eye(na), np.zeros((na, na))
@@ -506,5 +545,4 @@ def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
         C = np.hstack([C, Ce])
         D = D + De
         states += st
-    inputs, outputs = signal_names(cm.sensors, cm.actuators)
-    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
+    return A, B, C, D, states

@@ -5,14 +5,20 @@ poles the residues and the asymptotic terms solve the linear least-squares probl
 (3.15)-(3.16) (:mod:`~sdctrl.identification.residues`); the poles are updated by the
 gradient (3.19) or by variable projection (:mod:`~sdctrl.identification.search`) on data
 compressed to their dominant column space (:mod:`~sdctrl.identification.compression`).
-With no poles given, the automatic selection (:mod:`~sdctrl.identification.selection`)
-adds, removes and tries poles, judged by a heteroscedastic significance test
-(:mod:`~sdctrl.identification.noise`) and a residual scan
-(:mod:`~sdctrl.identification.scan`).  The final residues are solved on the full data.
+With no poles given, the initial poles are the stable poles of an algebraic LSCF
+estimator merged with peak candidates (:mod:`~sdctrl.identification.initial`), and the
+automatic selection (:mod:`~sdctrl.identification.selection`) adds, removes and tries
+poles, judged by a heteroscedastic significance test (:mod:`~sdctrl.identification.noise`)
+and a residual scan (:mod:`~sdctrl.identification.scan`).  The final residues are solved
+on the full data.
 
-Threads: the pole search and selection run on one BLAS thread (:mod:`sdctrl._threads`),
-a context scoped to the call; compression and the final residues use the caller's
-setting.  Progress: one bar per call (:mod:`sdctrl._progress`, ``sdctrl.config.progress``).
+Scale: the data are scaled by a power of two (exact) when their largest entry lies
+outside ``[2^-300, 2^300]``, and the residues scaled back, so any scale a float holds
+gives the same poles.
+
+Threads: the whole call runs on one BLAS thread (:mod:`sdctrl._threads`), a context
+scoped to the call and restored after.  Progress: one bar per call
+(:mod:`sdctrl._progress`, ``sdctrl.config.progress``).
 """
 
 from __future__ import annotations
@@ -25,6 +31,12 @@ from sdctrl._progress import progress_bar
 from sdctrl._threads import single_thread
 from sdctrl._validate import QUANTITY_POWER, as_array
 from sdctrl.identification.compression import compressed_data
+from sdctrl.identification.initial import (
+    initial_candidates,
+    lscf_candidates,
+    peak_set,
+    scaled,
+)
 from sdctrl.identification.residues import (
     LSQ,
     basis,
@@ -33,7 +45,7 @@ from sdctrl.identification.residues import (
     pole_from_params,
 )
 from sdctrl.identification.search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
-from sdctrl.identification.selection import AutoSelection, initial_candidates
+from sdctrl.identification.selection import AutoSelection
 
 __all__ = ["IdentificationWarning", "identify"]
 
@@ -63,11 +75,15 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         Measured FRFs (displacement, velocity or acceleration per unit force).
     poles : array_like of complex, optional
         Initial poles in rad/s (Im > 0, Re < 0).  When None, the poles are found
-        automatically: :func:`~sdctrl.identification.initial_poles` candidates (peaks of the
-        summed FRF and of the first singular values of ``H(f)``, damping from the
-        half-power width), then rounds of adding poles at residual peaks (missed modes),
-        removing poles that do not converge, fit noise, are fillers or are not
-        significant, and trying out-of-band poles just below and above the band.
+        automatically: the poles of an LSCF polynomial model of a few principal
+        responses that are stable over three model orders, merged with the
+        :func:`~sdctrl.identification.initial_poles` candidates no LSCF pole explains
+        (peaks of the summed FRF and of the first singular values of ``H(f)``, damping
+        from the half-power width); then rounds of removing poles that do not converge,
+        fit noise, are fillers or are not significant, trying out-of-band poles just
+        below and above the band, and adding poles at residual peaks (missed modes).
+        The search stops when the fit is numerically exact, or after a round whose
+        residual-peak candidates were all rejected.
     band : (float, float), optional
         Frequency band in Hz (default: all lines of ``frf``).
     model : {"complex", "real"}
@@ -116,13 +132,17 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         Poles sorted by frequency, displacement residues, ``E``, ``F``, ``in_band``,
         ``cost`` (relative FRF error ``||H_fit - H||_F / ||H||_F`` in the band) and
         ``info`` (optimiser, evaluations, compression rank, added/removed poles,
-        warnings).
+        warnings; in automatic mode ``info["stabilisation"]``, the LSCF poles of every
+        order computed, ``{"orders", "poles"}``: draw them with
+        ``sd.plot.stabilisation(st["poles"], frf, orders=st["orders"])``).
 
     Raises
     ------
     ValueError
         Empty band, fewer frequency lines than parameters, non-finite, unstable or
-        lower half-plane poles, NaN in the data, unknown options.
+        lower half-plane poles, NaN in the data, unknown options; in automatic mode,
+        data without a significant resonance in the band ("no mode found in the
+        band", e.g. a constant FRF or white noise).
 
     Warns
     -----
@@ -148,48 +168,83 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     asym = (True, True) if asymptotic else (False, False)
     npp = n_per_pole(model)
     auto = poles is None
-    if auto:
-        w0, z0, side = initial_candidates(frf, data, fband)
-    else:
-        w0, z0, side = _given_poles(poles, in_band, fband)
-    n_par = (npp + 2) * w0.size + sum(asym)
-    if 2 * nf < n_par or nf < 3:
-        raise ValueError(f"frf: the band has {nf} frequency lines, fewer than needed for the "
-                         f"{n_par} real parameters per channel of {w0.size} poles "
-                         f"(need 2 * n_lines >= parameters)")
-    Hm = data.H.reshape(nf, -1)
-    normH2 = float(np.sum(Hm.real**2) + np.sum(Hm.imag**2))
-    if normH2 == 0:
-        raise ValueError("frf.H is identically zero in the band")
-
-    p_guess = npp * (w0.size + 6) + sum(asym)
-    rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
-    Y, V, rank = compressed_data(Hm, rank, seed)
-    info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
-            "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
-    if V is not None:
-        info["compression_residual"] = float(max(normH2 - float(np.sum(Y**2)), 0) / normH2)
-    messages = []
-    opts = (fband, optimizer, max_iter, tol)
-    bar = progress_bar(desc="identify", unit="eval", enabled=progress)
-    try:
-        with single_thread():                 # small dense products: one BLAS thread
+    with single_thread():                     # one BLAS policy for the whole call
+        e = _exponent(data.H)
+        Hm = scaled(data.H.reshape(nf, -1), e)
+        if auto:
+            w0, z0, side = peak_set(frf, data.freq, Hm.reshape(data.H.shape), fband, e)
+        else:
+            w0, z0, side = _given_poles(poles, in_band, fband)
+        _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
+        normH2 = float(np.sum(Hm.real**2) + np.sum(Hm.imag**2))
+        p_guess = npp * (w0.size + 6) + sum(asym)
+        rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
+        Y, V, rank = compressed_data(Hm, rank, seed)
+        info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
+                "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
+        if V is not None:
+            info["compression_residual"] = float(max(normH2 - float(np.sum(Y**2)), 0) / normH2)
+        if auto:
+            merged = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max, info)
+            if 2 * nf >= (npp + 2) * merged[0].size + sum(asym):   # else: the peaks only
+                w0, z0, side, pending = merged
+            else:
+                pending = np.zeros(w0.size, bool)
+        messages = []
+        opts = (fband, optimizer, max_iter, tol)
+        bar = progress_bar(desc="identify", unit="eval", enabled=progress)
+        try:
             prob = PoleProblem(Y, 2j * np.pi * data.freq, QUANTITY_POWER[data.quantity],
                                model, asym, bar)
             if auto:
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
                                     _noise_shape(data, Hm, V))
-                w, z, side = _select(sel, w0, z0, side, bar, info, messages)
+                w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
+                if not np.any(side == 0):
+                    raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"
+                                     f"{fband[1]:g} Hz (no significant resonance in the "
+                                     "data; give poles= to fit chosen poles anyway)")
             else:
                 w, z = _given_search(prob, w0, z0, side, opts, info, messages)
             info["nfev"] = prob.nfev
-    finally:
-        bar.close()
-    cm = _final_model(data, fband, Hm, normH2, (w, z, side), model, asym, info, messages)
+        finally:
+            bar.close()
+        cm = _final_model(data, fband, Hm, normH2, (w, z, side), model, asym, info,
+                          messages, e)
     for msg in messages:
         warnings.warn(msg, IdentificationWarning, stacklevel=2)
     return cm
+
+
+def _exponent(H) -> int:
+    """Binary exponent ``e`` the data are scaled by (``H 2^-e``, exact) so that their
+    largest entry is near 1 when it lies outside ``[2^-300, 2^300]`` (identification does
+    not depend on the scale of ``H``: squares of ``1e160`` or ``1e-160`` would overflow or
+    underflow); 0 otherwise."""
+    big = float(np.max(np.abs(H))) if H.size else 0.0
+    if big == 0:
+        raise ValueError("frf.H is identically zero in the band")
+    e = int(np.frexp(big)[1])
+    return e if abs(e) > 300 else 0
+
+
+def _check_lines(nf, n_par, n_poles):
+    if 2 * nf < n_par or nf < 3:
+        raise ValueError(f"frf: the band has {nf} frequency lines, fewer than needed for the "
+                         f"{n_par} real parameters per channel of {n_poles} poles "
+                         f"(need 2 * n_lines >= parameters)")
+
+
+def _algebraic(freq, Y, fband, peaks, zeta_max, info):
+    """Peak candidates merged with the stable LSCF poles (and which peaks are pending);
+    the LSCF poles of every order go to ``info["stabilisation"]``."""
+    w0, z0, side = peaks
+    w_l, z_l, stab = lscf_candidates(freq, Y, fband, int(np.count_nonzero(side == 0)),
+                                     zeta_max)
+    info["stabilisation"] = stab
+    df = float(np.median(np.diff(freq))) if freq.size > 1 else 1.0
+    return initial_candidates(w_l, z_l, w0, z0, side, df)
 
 
 def _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
@@ -266,10 +321,11 @@ def _noise_shape(data, Hm, V):
     return pv if V is None else pv @ V**2
 
 
-def _select(sel, w0, z0, side, bar, info, messages):
+def _select(sel, start, bar, info, messages):
     """Automatic selection; Ctrl-C returns the last complete fit, flagged in ``info``."""
+    w0, z0, side, pending = start
     try:
-        w, z, side, _ev, sinfo = sel.run(w0, z0, side, bar)
+        w, z, side, _ev, sinfo = sel.run(w0, z0, side, bar, pending=pending)
     except KeyboardInterrupt:
         if sel.best is None:
             raise
@@ -299,7 +355,7 @@ def _search_info(sinfo, info, messages):
         messages.append(f"pole search did not converge: {sinfo.get('message', '')}")
 
 
-def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages):
+def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=0):
     """Residues of the poles on the full data (3.16) and the :class:`ComplexModeModel`."""
     from sdctrl.identification.complex_modes import ComplexModeModel
 
@@ -318,6 +374,12 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages):
                         "poles too close together or too many asymptotic terms")
     info["rcond"] = lsq.rcond
     R, E, F = coefficients_to_model(C, lam, model, asym, ns, na)
+    if e:
+        R = np.ldexp(R.real, e) + 1j * np.ldexp(R.imag, e)
+        E, F = np.ldexp(E, e), np.ldexp(F, e)
+        if not (np.all(np.isfinite(R)) and np.all(np.isfinite(E)) and np.all(np.isfinite(F))):
+            raise ValueError("frf.H: the residues of data this large overflow (largest "
+                             f"|H| = 2^{e}); rescale the data")
     info["warnings"] = messages
     return ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
                             cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,

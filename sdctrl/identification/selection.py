@@ -1,7 +1,7 @@
 """Automatic pole selection of :func:`~sdctrl.identify` when no poles are given (3.2.1).
 
-Starting from :func:`initial_candidates` (peaks of the indicator functions,
-:func:`~sdctrl.identification.poles.peak_candidates`), :class:`AutoSelection` iterates:
+Starting from the initial candidates (:mod:`~sdctrl.identification.initial`: stable
+LSCF poles and peaks of the indicator functions), :class:`AutoSelection` iterates:
 add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification.scan`),
 drop poles that do not converge (pushed to a bound), fit noise (half-power bandwidth below
 a fraction of the line spacing), are in-band fillers with very large damping or are not
@@ -28,49 +28,10 @@ from sdctrl.identification.noise import NoiseTest
 from sdctrl.identification.scan import ResidualScan
 from sdctrl.identification.search import search_poles
 
-__all__ = ["AutoSelection", "initial_candidates"]
+__all__ = ["PROBE_EVALS", "AutoSelection"]
 
-
-def initial_candidates(frf, data, fband):
-    """Initial poles of the automatic selection: peaks in the band and just outside it.
-
-    Parameters
-    ----------
-    frf : FRF
-        All the measured lines (peaks just outside the band are looked for in them).
-    data : FRF
-        The lines of the band.
-    fband : (float, float)
-        Band in Hz.
-
-    Returns
-    -------
-    w0 : ndarray
-        Natural frequencies (rad/s).
-    z0 : ndarray
-        Damping ratios.
-    side : ndarray of int
-        0 in band, -1 below, +1 above.
-    """
-    from sdctrl.identification.poles import peak_candidates
-
-    nf = data.freq.size
-    f0, z0, _ = peak_candidates(data.freq, data.H, 4, 2.0, None) if nf >= 3 else ([], [], [])
-    w0 = 2 * np.pi * np.asarray(f0, float)
-    z0 = np.asarray(z0, float)
-    side = np.zeros(w0.size, int)
-    # peaks in data just outside the band, when the FRF has them
-    lo_extra = (frf.freq >= 0.75 * fband[0]) & (frf.freq < fband[0])
-    hi_extra = (frf.freq > fband[1]) & (frf.freq <= 1.25 * fband[1])
-    for sel, sd in ((lo_extra, -1), (hi_extra, 1)):
-        if np.count_nonzero(sel) >= 5:
-            fo, zo, so = peak_candidates(frf.freq[sel], frf.H[sel], 4, 2.0, None)
-            if fo.size:
-                i = np.argmax(so)
-                w0 = np.append(w0, 2 * np.pi * fo[i])
-                z0 = np.append(z0, zo[i])
-                side = np.append(side, sd)
-    return w0, z0, side
+#: evaluations (varpro; iterations / 10 for the gradient optimiser) of a probe of new poles
+PROBE_EVALS = 40
 
 
 class AutoSelection:
@@ -117,16 +78,21 @@ class AutoSelection:
         side : ndarray of int
             0 in band, -1 below, +1 above.
         only : array_like of int, optional
-            Poles searched (the others fixed).
+            Poles searched (the others fixed): a probe of new poles, stopped after
+            :data:`PROBE_EVALS` evaluations (noise candidates wander towards a bound and
+            would use the whole budget; they are rejected all the same).
 
         Returns
         -------
         tuple
             ``(w, z, ev, info)``: the poles, their evaluation and the search info.
         """
+        max_iter = self.max_iter
+        if only is not None:        # a probe: true modes converge in ~10 evaluations,
+            max_iter = min(max_iter, PROBE_EVALS * (1 if self.optimizer == "varpro" else 10))
         w, z, info = search_poles(self.prob, w, z, side, self.fband, self.optimizer,
-                                  self.max_iter, self.tol, only)
-        if not info.get("converged", True):
+                                  max_iter, self.tol, only)
+        if only is None and not info.get("converged", True):
             self.log.append(("not converged", info.get("message", "")))
         x = np.concatenate([np.log(w), np.log(z)])
         ev = self.prob.evaluate(x)
@@ -230,19 +196,19 @@ class AutoSelection:
             reasons.setdefault(j, f"filler (damping above {self.zeta_max:g})")
         return reasons
 
-    def _drop_weak_candidates(self, w, z, side):
+    def _drop_weak_candidates(self, w, z, side, pending):
         """Initial candidates far below the noise threshold at their picked position
         (noise peaks of the indicator functions) are dropped before the first, costly,
         fit; a true mode dropped here is not excluded from the residual scan."""
         if w.size <= 1:
-            return w, z, side
+            return w, z, side, pending
         x = np.concatenate([np.log(w), np.log(z)])
         sig0 = self.significance(w, z, self.prob.evaluate(x))
         keep = (sig0 >= 0.2) | (side != 0)
         for j in np.flatnonzero(~keep):
             self.log.append(("dropped candidate", float(w[j] / (2 * np.pi)), float(z[j]),
                              f"cost change {sig0[j]:.3g} x noise threshold"))
-        return w[keep], z[keep], side[keep]
+        return w[keep], z[keep], side[keep], pending[keep]
 
     def _out_of_band(self, state, tried_side):
         """Modes just outside the band (their tails distort the in-band residual),
@@ -271,9 +237,10 @@ class AutoSelection:
                 self.best = state
         return changed
 
-    def _add_missed(self, state, cand):
-        """Fit the candidates of the residual scan; the new state, or None when none of
-        them is kept (the rejected ones are in ``self.tried``)."""
+    def _add_missed(self, state, cand, reason="residual peak"):
+        """Fit the candidates of the residual scan (or pending initial candidates); the
+        new state, or None when none of them is kept (the rejected ones are in
+        ``self.tried``)."""
         w, z, side = state[:3]
         n0 = w.size
         wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
@@ -289,11 +256,10 @@ class AutoSelection:
         keep = np.concatenate([np.arange(n0), ok])
         w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
         for j in range(n0, keep.size):
-            self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]),
-                             "residual peak"))
+            self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]), reason))
         return w2, z2, sn[keep], ev2, info2
 
-    def run(self, w, z, side, bar=None, rounds=20):
+    def run(self, w, z, side, bar=None, rounds=20, pending=None):
         """The add/remove loop from initial poles ``(w rad/s, z, side)``.
 
         Parameters
@@ -306,16 +272,26 @@ class AutoSelection:
             Shows the number of poles and the relative cost.
         rounds : int
             Maximum number of rounds.
+        pending : ndarray of bool, optional
+            Candidates added after the first fit, as new poles fitted alone first (the
+            peaks no LSCF pole explains): a noise peak in the first full search would
+            wander to a bound and cost many evaluations.
 
         Returns
         -------
         tuple
             ``(w, z, side, ev, info)`` of the last fit (also kept in :attr:`best`).
         """
-        w, z, side = self._drop_weak_candidates(w, z, side)
-        state = self.best = self._first_fit(w, z, side)
+        pending = np.zeros(w.size, bool) if pending is None else np.asarray(pending, bool)
+        w, z, side, pending = self._drop_weak_candidates(w, z, side, pending)
+        if pending.all():
+            pending[:] = False
+        state = self.best = self._first_fit(w[~pending], z[~pending], side[~pending])
+        if pending.any():
+            new = self._add_missed(state, list(zip(w[pending] / (2 * np.pi), z[pending])),
+                                   "peak of the indicator functions")
+            state = self.best = state if new is None else new
         tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
-        failed_adds = 0
         for _ in range(rounds):
             w, z, side, ev, info = state
             if bar is not None:
@@ -324,22 +300,21 @@ class AutoSelection:
             if pr is not None:
                 state = self.best = self._first_fit(*pr)
                 continue
+            if ev["cost"] <= self.noise.floor:
+                break                         # numerically exact: nothing left to find
             new = self._out_of_band(state, tried_side)
             if new is not None:
-                state, failed_adds = new, 0
+                state = new
                 continue
-            # missed in-band modes: add at residual peaks, keep the significant ones
-            if failed_adds >= 2:
-                break
+            # missed in-band modes: add at residual peaks, keep the significant ones;
+            # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
             if not cand:
                 break
             new = self._add_missed(state, cand)
             if new is None:
-                failed_adds += 1
-                continue
+                break
             state = self.best = new
-            failed_adds = 0
         else:
             self.warn(f"automatic pole selection stopped after {rounds} rounds")
         return self.best

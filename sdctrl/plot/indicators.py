@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sdctrl._validate import as_array, check_band, check_int, check_scalar
 from sdctrl.plot import _channels as ch
 from sdctrl.plot._figure import FREQ_LABEL, db, db_label, figure, finish, log_x_if_wide
 
@@ -32,9 +33,10 @@ def _singular_values(H: np.ndarray) -> np.ndarray:
 def _pole_array(p, name: str) -> np.ndarray:
     p = getattr(p, "poles", p)
     try:
-        arr = np.asarray(p, dtype=complex).ravel()
+        arr = as_array(p, name, ndim=(0, 1), dtype=complex, finite=False).ravel()
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must hold complex poles (rad/s) or models with .poles") from exc
+        raise TypeError(f"{name} must hold complex poles (rad/s) or models with .poles "
+                        f"({exc})") from None
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must contain finite poles")
     return arr
@@ -77,7 +79,7 @@ def cmif(data, freq=None, path: str | os.PathLike | None = None, title: str | No
     """
     frf = ch.to_frfs(ch.as_list(data, "data"), freq, quantity, "data")[0][0]
     sv = _singular_values(frf.H)
-    r = sv.shape[1] if n_sv is None else int(n_sv)
+    r = sv.shape[1] if n_sv is None else check_int(n_sv, "n_sv")
     if not 1 <= r <= sv.shape[1]:
         raise ValueError(f"n_sv must lie in [1, {sv.shape[1]}], got {n_sv!r}")
     fig = figure(8.0, 4.2)
@@ -96,8 +98,8 @@ def cmif(data, freq=None, path: str | os.PathLike | None = None, title: str | No
 
 
 def _check_tol(x, name: str, hi: float = np.inf) -> float:
-    x = float(x)
-    if not (np.isfinite(x) and 0 < x <= hi):
+    x = check_scalar(x, name)
+    if not 0 < x <= hi:
         raise ValueError(f"{name} must be a positive number{' <= 1' if hi == 1 else ''}, "
                          f"got {x!r}")
     return x
@@ -239,7 +241,8 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
     """
     flags = stabilisation_flags(poles, shapes, freq_tol, damping_tol, mac_min)
     P = [_pole_array(p, f"poles[{k}]") for k, p in enumerate(poles)]
-    y = np.arange(1, len(P) + 1, dtype=float) if orders is None else np.asarray(orders, float)
+    y = (np.arange(1, len(P) + 1, dtype=float) if orders is None
+         else as_array(orders, "orders", ndim=1))
     if y.shape != (len(P),):
         raise ValueError(f"orders must have one value per entry of poles ({len(P)}), "
                          f"got shape {y.shape}")
@@ -249,7 +252,7 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
         raise TypeError(f"frf must be an FRF, got {type(frf).__name__}")
     f_all = np.concatenate([np.abs(p[fl >= 0]) / (2 * np.pi) for p, fl in zip(P, flags)])
     if band is not None:
-        lo, hi = (float(b) for b in band)
+        lo, hi = check_band(band, "band")
     elif frf is not None:
         lo, hi = frf.freq[0], frf.freq[-1]
     elif f_all.size:

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sdctrl._validate import as_array
+from sdctrl._validate import as_array, check_int
 from sdctrl.plot._figure import figure, finish
 
 if TYPE_CHECKING:
@@ -112,29 +112,32 @@ def mac(a, b=None, path: str | os.PathLike | None = None, title: str | None = No
     return finish(fig, path, title or ("auto-MAC" if b is None else "MAC"))
 
 
-def cost_map(x, y, cost, path: str | os.PathLike | None = None, title: str | None = None, *,
-             xlabel: str = "p1", ylabel: str = "p2", optimum=None, markers=None,
-             log: bool | None = None, levels: int = 20, cost_label: str = "cost") -> Figure:
+def cost_map(x, y=None, cost=None, path: str | os.PathLike | None = None,
+             title: str | None = None, *, xlabel: str | None = None, ylabel: str | None = None,
+             optimum=None, markers=None, log: bool | None = None, levels: int = 20,
+             cost_label: str = "cost") -> Figure:
     """Cost over a grid of two parameters, filled contours with the optimum (Figure 4.6).
 
-    A long flat valley shows parameters the test cannot tell apart (thesis 4.3.3: the
+    A long flat valley shows parameters the test cannot tell apart (thesis 4.4: the
     mirror and plate masses of the interferometer testbed).
 
     Parameters
     ----------
-    x : array_like, shape (nx,)
-        Values of the first parameter (horizontal axis).
+    x : array_like, shape (nx,), or CostMap
+        Values of the first parameter (horizontal axis), or a
+        :class:`~sdctrl.updating.CostMap` (from ``Identifiability.cost_map``) holding ``x``,
+        ``y``, ``cost`` and the parameter names.
     y : array_like, shape (ny,)
-        Values of the second parameter (vertical axis).
+        Values of the second parameter (vertical axis); omitted with a CostMap.
     cost : array_like, shape (nx, ny)
         ``cost[i, j]`` at ``(x[i], y[j])`` (``meshgrid(x, y, indexing="ij")`` order); NaN
-        marks points that could not be evaluated.
+        marks points that could not be evaluated; omitted with a CostMap.
     path : str or os.PathLike, optional
         Save the figure there and close it.
     title : str, optional
         Figure title.
-    xlabel, ylabel : str
-        Parameter names (with units).
+    xlabel, ylabel : str, optional
+        Parameter names (with units); default the CostMap's names, else ``"p1"``, ``"p2"``.
     optimum : (float, float), optional
         Point marked as the optimum (e.g. an update result); default the grid minimum.
     markers : dict of str to (float, float), optional
@@ -153,6 +156,16 @@ def cost_map(x, y, cost, path: str | os.PathLike | None = None, title: str | Non
         ``fig.axes[0]`` holds the map (contour sets, optimum and markers as lines with
         their labels in the legend), then the colour bar.
     """
+    if y is None and cost is None and hasattr(x, "cost"):
+        xlabel = x.xlabel if xlabel is None else xlabel
+        ylabel = x.ylabel if ylabel is None else ylabel
+        if cost_label == "cost":
+            cost_label = "logLS cost"
+        x, y, cost = x.x, x.y, x.cost
+    if y is None or cost is None:
+        raise TypeError("cost_map needs x, y and cost arrays, or a CostMap as its first argument")
+    xlabel = "p1" if xlabel is None else xlabel
+    ylabel = "p2" if ylabel is None else ylabel
     X = as_array(x, "x", ndim=1)
     Y = as_array(y, "y", ndim=1)
     C = as_array(cost, "cost", ndim=2, finite=False)
@@ -164,8 +177,7 @@ def cost_map(x, y, cost, path: str | os.PathLike | None = None, title: str | Non
     ok = np.isfinite(C)
     if not ok.any() or np.isinf(C).any():
         raise ValueError("cost must contain finite values (NaN marks missing points, no inf)")
-    if not isinstance(levels, int | np.integer) or levels < 2:
-        raise ValueError(f"levels must be an integer >= 2, got {levels!r}")
+    levels = check_int(levels, "levels", minimum=2, maximum=1000)
     pos = bool(np.all(C[ok] > 0))
     if log is None:
         log = pos and C[ok].max() > 100 * C[ok].min()
@@ -173,7 +185,7 @@ def cost_map(x, y, cost, path: str | os.PathLike | None = None, title: str | Non
         raise ValueError("log=True needs a positive cost")
     Z = np.log10(C) if log else C
     i, j = np.unravel_index(np.nanargmin(C), C.shape)
-    opt = (X[i], Y[j]) if optimum is None else tuple(float(v) for v in optimum)
+    opt = (X[i], Y[j]) if optimum is None else tuple(as_array(optimum, "optimum", shape=(2,)))
     fig = figure(7.0, 5.5)
     ax = fig.add_subplot(1, 1, 1)
     cs = ax.contourf(X, Y, np.ma.masked_invalid(Z).T, levels=int(levels), cmap="viridis_r")

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sdctrl._validate import as_array, check_int, check_seed
 from sdctrl.frf import FRF
 from sdctrl.plot import _channels as ch
 from sdctrl.plot._figure import (
@@ -76,9 +77,17 @@ def phase_display(h, coherence=None, unwrap: bool = True,
     points : ndarray, shape (nf,)
         Phase (deg) at the other samples, NaN at coherent ones.
     """
-    h = np.asarray(h, dtype=complex)
+    h = as_array(h, "h", ndim=1, dtype=complex)
+    n = h.size
+    if coherence is not None:
+        coherence = as_array(coherence, "coherence", shape=(n,))
+        if np.any(coherence < 0) or np.any(coherence > 1):
+            raise ValueError("coherence must lie in [0, 1]")
+    if reference is not None:
+        reference = as_array(reference, "reference", shape=(n,), finite=False)
+        if np.any(np.isinf(reference)):
+            raise ValueError("reference must hold finite phases (deg) or NaN where unknown")
     ph = np.degrees(np.angle(h))
-    n = ph.size
     coherent = _coherent(h, coherence)
     line = np.full(n, np.nan)
     points = np.full(n, np.nan)
@@ -377,6 +386,9 @@ def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.Pat
         One magnitude axes per channel holding the band (a ``fill_between`` collection
         from ``20 log10 min|H|`` to ``20 log10 max|H|``) and the nominal line.
     """
+    n_samples = check_int(n_samples, "n_samples", minimum=1, maximum=10**6)
+    seed = check_seed(seed, "seed")
+    max_cols = check_int(max_cols, "max_cols", minimum=1)
     if callable(getattr(samples, "frf_envelope", None)):
         nom, ref, lo, hi, q = _envelope_of_model(samples, freq, nominal, quantity,
                                                  n_samples, seed)

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sdctrl._validate import as_array
+from sdctrl._validate import as_array, check_finite_result, check_scalar
 from sdctrl.plot._figure import figure, finish, grid_shape
 
 if TYPE_CHECKING:
@@ -47,7 +47,7 @@ def phase_dispersion(r, rel: float = 0.1) -> float:
         the principal line ``theta = arg(sum r^2) / 2``; 0 for collinear residues.
     """
     z = as_array(r, "r", ndim=1, dtype=complex)
-    rel = float(rel)
+    rel = check_scalar(rel, "rel")
     if not 0 <= rel < 1:
         raise ValueError(f"rel must lie in [0, 1), got {rel}")
     if not np.any(z):
@@ -74,18 +74,15 @@ def _residue_set(x, mode: int, actuator, scaled: bool, name: str):
         n = len(x.poles)
         if not -n <= mode < n:
             raise ValueError(f"mode {mode} out of range for {name} with {n} modes")
-        if scaled:
-            r = x.scaled()[0][:, mode]
+        R = np.asarray(x.residues)[mode]                          # (ns, na)
+        if actuator is None:
+            col = list(getattr(x, "collocated", ()) or ())
+            a = col[0][1] if col else int(np.argmax(np.linalg.norm(R, axis=0)))
         else:
-            R = np.asarray(x.residues)[mode]                      # (ns, na)
-            if actuator is None:
-                col = list(getattr(x, "collocated", ()) or ())
-                a = col[0][1] if col else int(np.argmax(np.linalg.norm(R, axis=0)))
-            else:
-                a = _index(actuator, getattr(x, "actuators", None), "actuator")
-            if not -R.shape[1] <= a < R.shape[1]:
-                raise ValueError(f"actuator index {a} out of range for {R.shape[1]} actuators")
-            r = R[:, a]
+            a = _index(actuator, getattr(x, "actuators", None), "actuator")
+        if not -R.shape[1] <= a < R.shape[1]:
+            raise ValueError(f"actuator index {a} out of range for {R.shape[1]} actuators")
+        r = x.scaled()[0][:, mode] if scaled else R[:, a]
         return np.asarray(r, complex), getattr(x, "sensors", None), float(x.frequency[mode])
     arr = as_array(x, name, ndim=(1, 2), dtype=complex)
     if arr.ndim == 2:
@@ -137,9 +134,16 @@ def complex_residues(data, mode: int = 0, path: str | os.PathLike | None = None,
         One axes (equal scales); the markers of set ``k`` are the line with ``gid``
         ``"set{k}"`` (x: real parts, y: imaginary parts).
     """
+    rel = check_scalar(rel, "rel")
+    if not 0 <= rel < 1:
+        raise ValueError(f"rel must lie in [0, 1), got {rel}")
     sets = data if isinstance(data, list | tuple) else [data]
     if not sets:
         raise ValueError("data must hold at least one set of residues")
+    if actuator is not None and not any(getattr(x, "residues", None) is not None
+                                        for x in sets):
+        raise ValueError("actuator selects a column of a model's residues, but data holds no "
+                         "model (arrays are residues at one actuator already)")
     if isinstance(mode, bool) or not isinstance(mode, int | np.integer):
         raise TypeError(f"mode must be an integer index, got {mode!r}")
     got = [_residue_set(x, int(mode), actuator, scaled, f"data[{k}]")
@@ -261,7 +265,10 @@ def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
     if getattr(fe, "nodes", None) is None:
         raise ValueError("fe must have node coordinates (FEModel(..., nodes=...)) to draw "
                          "shapes on its geometry")
-    idx = [modes] if isinstance(modes, int | np.integer) else list(modes)
+    if not isinstance(modes, int | np.integer | list | tuple | np.ndarray):
+        raise TypeError(f"modes must be an index or a sequence of indices, got "
+                        f"{type(modes).__name__}")
+    idx = [modes] if isinstance(modes, int | np.integer) else list(np.ravel(modes))
     if not idx or any(isinstance(m, bool) or not isinstance(m, int | np.integer) or m < 0
                       for m in idx):
         raise ValueError(f"modes must be a non-negative index or a non-empty sequence of "
@@ -272,8 +279,7 @@ def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
                          f"{phi.shape[0]} rows")
     if max(idx) >= phi.shape[1]:
         raise ValueError(f"modes: index {max(idx)} out of range for {phi.shape[1]} shapes")
-    if scale is not None and not (np.isfinite(scale) and scale > 0):
-        raise ValueError(f"scale must be a positive number, got {scale!r}")
+    scale = check_scalar(scale, "scale", positive=True, optional=True)
     rows, cols = grid_shape(len(idx), max_cols)
     fig = figure(4.8 * cols, 3.8 * rows + 0.4)
     for k, m in enumerate(idx):
@@ -298,8 +304,12 @@ def _draw_shape(ax, fe, v, labels, scale):
     names, xyz, d = _node_motion(fe, v, labels)
     size = float(np.ptp(xyz, axis=0).max()) or 1.0
     dmax = float(np.abs(d).max())
-    s = scale if scale is not None else (0.1 * size / dmax if dmax > 0 else 0.0)
-    moved = xyz + s * d
+    if scale is None:                 # largest translation drawn as 10% of the size
+        moved = xyz + (0.1 * size) * (d / dmax) if dmax > 0 else xyz
+    else:
+        with np.errstate(over="ignore", invalid="ignore"):
+            moved = xyz + scale * d
+        check_finite_result(moved, "the deformed shape", "scale")
     pos = {n: i for i, n in enumerate(names)}
     pairs = [(pos[a], pos[b]) for a, b in (fe.elements or ())]
     if pairs:
