@@ -23,6 +23,7 @@ import warnings
 
 import numpy as np
 
+from sdctrl._validate import check_scalar
 from sdctrl.fe.static import consistent_static_modes
 from sdctrl.fe.validation import check_fe_model, shapes_on_dofs
 from sdctrl.hybridbasis import build_basis, fe_modes_upto, select_residual, stack_parts
@@ -262,13 +263,29 @@ def _test_io(fe, nm, sensor_c, actuator_b):
     if c.shape[0] != nm.ns:
         raise ValueError(f"sensor_c must have one row per sensor of nm (ns={nm.ns}), got "
                          f"{c.shape[0]}")
+    _check_io_scale(c, "sensor_c")
     b = None
     if actuator_b is not None:
         b, _ = shapes_on_dofs(actuator_b, N, fe.dofs, "actuator_b")
         if b.shape[1] != nm.na:
             raise ValueError(f"actuator_b must have one column per input of nm (na={nm.na}), "
                              f"got {b.shape[1]}")
+        _check_io_scale(b.T, "actuator_b")
     return c, b
+
+
+def _check_io_scale(x, name):
+    """Each sensor (row) or input (column) shape must be non-zero and of a usable scale:
+    the expansion fits ``c phi`` in a scale-free way, but zero, overflowing or subnormal
+    shapes make it meaningless."""
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    nrm = np.linalg.norm(x, axis=1)
+    big = np.abs(x).max() if x.size else 0.0
+    if np.any(nrm == 0) or big > 1e100 or np.any(nrm < 1e-100):
+        raise ValueError(f"{name}: every shape must be non-zero with entries of a usable "
+                         f"scale (norms between 1e-100 and 1e100), got norms in "
+                         f"[{nrm.min() if nrm.size else 0:.3g}, {big:.3g}]")
 
 
 def _measured(nm, fmax, mac_min):
@@ -280,12 +297,11 @@ def _measured(nm, fmax, mac_min):
     w2_id = np.clip(np.diag(Om), 0, None)
     if nm.n == 0:
         raise ValueError("nm must hold at least one measured mode")
+    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
     if fmax is None:
         fmax = 5.0 * float((np.sqrt(w2_id) / (2 * np.pi)).max())
-    fmax = float(fmax)
-    if not np.isfinite(fmax) or fmax <= 0:
-        raise ValueError(f"fmax must be a positive frequency in Hz, got {fmax}")
-    return w2_id, fmax, float(mac_min)
+    mac_min = check_scalar(mac_min, "mac_min", lo=0.0, hi=1.0)
+    return w2_id, fmax, mac_min
 
 
 def _mean_damping(nm, w_id, kept) -> float:
