@@ -26,16 +26,15 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
-import scipy.sparse as sp
 
 from sdctrl._validate import as_array, readonly
 from sdctrl.fe.static import consistent_static_modes
 from sdctrl.fe.validation import check_fe_model, shapes_on_dofs
 from sdctrl.modal import NormalModeModel
-from sdctrl.updating.reanalysis import reanalysis
+from sdctrl.updating.reanalysis import modification_loads, reanalysis
 
-__all__ = ["HybridModel", "modification_loads", "modify", "pairing_report", "strut_feedback",
-           "with_io", "with_static"]
+__all__ = ["HybridModel", "modify", "pairing_report", "strut_feedback", "with_io",
+           "with_static"]
 
 
 @dataclass(frozen=True, eq=False, repr=False)      # the concise repr of NormalModeModel
@@ -310,56 +309,6 @@ def with_static(model, loads) -> HybridModel:
         phib=np.vstack([model.phib, V.T @ model.actuator_b]), info=info)
 
 
-def modification_loads(dM=None, dC=None, dK=None, N: int | None = None,
-                       rtol: float = 1e-9) -> np.ndarray:
-    """Load shapes ``F_U`` spanning a modification, eq. (4.22).
-
-    ``dM q'' + dC q' + dK q`` acts on the structure as loads in the range of the three
-    matrices; an orthonormal basis of that range (eigenvectors of the non-zero blocks with
-    eigenvalues above ``rtol`` of the largest) gives the inputs of the static correction
-    (4.23).  Localised changes give few loads.
-
-    Parameters
-    ----------
-    dM, dC, dK : array_like or sparse, shape (N, N), optional
-        The modification (symmetric).
-    N : int, optional
-        Number of DOFs (checked against the matrices).
-    rtol : float
-        Relative threshold of the range.
-
-    Returns
-    -------
-    ndarray, shape (N, k)
-        Orthonormal load shapes (``k = 0`` for no modification).
-    """
-    cols = []
-    for name, X in (("dM", dM), ("dC", dC), ("dK", dK)):
-        if X is None:
-            continue
-        Xc = sp.csr_matrix(X) if sp.issparse(X) else sp.csr_matrix(as_array(X, name, ndim=2))
-        if N is None:
-            N = Xc.shape[0]
-        if Xc.shape != (N, N):
-            raise ValueError(f"{name} must have shape ({N}, {N}), got {Xc.shape}")
-        if Xc.nnz and not np.all(np.isfinite(Xc.data)):
-            raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
-        idx = np.unique(np.concatenate([Xc.indices, np.repeat(np.arange(N),
-                                                              np.diff(Xc.indptr))]))
-        if not idx.size:
-            continue
-        sub = Xc[idx][:, idx].toarray()
-        ev, V = np.linalg.eigh(0.5 * (sub + sub.T))
-        big = np.abs(ev) > rtol * max(np.abs(ev).max(), 1e-300)
-        U = np.zeros((N, int(big.sum())))
-        U[idx] = V[:, big]
-        cols.append(U)
-    if not cols:
-        return np.zeros((N or 0, 0))
-    U, s, _ = np.linalg.svd(np.hstack(cols), full_matrices=False)
-    return U[:, s > 1e-8 * max(s.max(), 1e-300)] if s.size else U
-
-
 def with_io(model, b=None, c=None, *, actuators=None, sensors=None,
             static: bool | None = None) -> HybridModel:
     """Model with new inputs and/or outputs on the DOFs of its shapes (untested loops, 5.1).
@@ -444,7 +393,7 @@ def modify(model, dM=None, dC=None, dK=None, *, static: bool | None = None) -> H
     re-expressed on its normal modes: the reanalysis (4.17) of
     :func:`sdctrl.updating.reanalysis.reanalysis` on the hybrid basis.  For a model that
     carries its FE model, static correction modes (4.22)-(4.24) for the loads of the
-    modification (:func:`modification_loads`), consistent with the shapes, are appended to
+    modification (:func:`~sdctrl.updating.reanalysis.modification_loads`), consistent with the shapes, are appended to
     the basis first (:func:`with_static`).
 
     Parameters
