@@ -138,7 +138,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     -----
     UserWarning
         Poor FE/test pairing of an in-band mode (MAC below ``mac_min``), fewer sensors than
-        measured modes, or inputs that cannot be placed on the FE model.
+        measured modes, inputs that cannot be placed on the FE model, or an ``nm`` built
+        from a subset of the identified poles (``normal_modes(cm, modes=...)``: use the
+        default).
 
     Examples
     --------
@@ -175,6 +177,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
                          f"{mac_pairs[km[j]]:.2f}" for j in poor)
         warnings.warn(f"hybrid: poor FE/test mode pairing (MAC < {mac_min:g}): {desc}",
                       stacklevel=2)
+    _warn_left_out(nm)
     loads, unexcited = _loads(fe, nm, b)
     if unexcited:
         warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
@@ -204,6 +207,18 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     return HybridModel(np.diag(w2), Gamma, c @ shapes, phib, E=parts["E"], sensors=nm.sensors,
                        actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info, fe=fe,
                        sensor_c=c, actuator_b=loads)
+
+
+def _warn_left_out(nm) -> None:
+    """Poles of the identified model left out of ``nm`` (``normal_modes(cm, modes=...)``)."""
+    hz = np.atleast_1d(np.asarray(nm.info.get("poles_left_out_hz", []), float))
+    if hz.size:
+        warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
+                      f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
+                      "band edges is lost and only the FE model stands for them; build nm "
+                      "with sd.normal_modes(cm) (its default, every pole): hybrid keeps the "
+                      "out-of-band modes that pair with the FE and absorbs the others",
+                      stacklevel=3)
 
 
 def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:

@@ -94,7 +94,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         ``damping_eigenvalues``, ``stiffness_eigenvalues`` (of ``M_T, C_T, K_T``),
         ``positive_definite`` (dict mass/damping/stiffness), ``in_band`` (per normal mode,
         the flag of the pole it matches), ``band`` (of ``cm``), ``poles_used`` (indices
-        of the poles of ``cm`` transformed), ``pole_error`` (max relative
+        of the poles of ``cm`` transformed), ``poles_left_out`` and ``poles_left_out_hz``
+        (the others, which :func:`sdctrl.hybrid` warns about), ``pole_error`` (max relative
         deviation of the poles from ``cm.poles``), ``residue_error`` (relative residue
         misfit of the result), ``collocation_error``, ``c_T`` and ``sensor_eigenvalues``
         (the (3.47) spectrum, kept ones first), ``M_T``, ``C_T``, ``K_T``.
@@ -223,6 +224,9 @@ def _transform(cm, sel, pairs, tol, maxiter):
                       f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
                       stacklevel=3)
     info["poles_used"] = np.asarray(sel)
+    left = np.setdiff1d(np.arange(cm.n), sel)
+    info["poles_left_out"] = left
+    info["poles_left_out_hz"] = np.asarray(cm.frequency)[left]
     info["in_band"] = _mode_in_band(w2, lam, np.asarray(cm.in_band, bool)[sel])
     info["band"] = None if cm.band is None else tuple(float(v) for v in cm.band)
     return nm.replace(info={**info, "source": "normal_modes"})
