@@ -116,9 +116,17 @@ class HybridModel(NormalModeModel):
         Returns
         -------
         HybridModel
+            ``sensor_c`` (``actuator_b``) is dropped when new ``cphi`` (``phib``) changes the
+            number of outputs (inputs) without giving it: the physical shapes of the new
+            signals are unknown (no static correction then).
         """
         kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
         kw.update(changes)
+        for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1)):
+            old, new = kw[name], changes.get(key)
+            if (name not in changes and old is not None and new is not None
+                    and np.ndim(new) == 2 and np.shape(new)[axis] != old.shape[axis]):
+                kw[name] = None
         return type(self)(**kw)
 
     def _repr_markdown_(self) -> str:
