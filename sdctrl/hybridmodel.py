@@ -73,7 +73,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       identified residual mass ``F``; the appended FE frequencies are scaled by ``kappa``,
       the median measured/FE frequency ratio of the paired modes.  Each of these steps is
       kept only if it brings the model closer to ``nm`` at the tested I/O
-      (:func:`sdctrl.hybridbasis.select_residual`; ``info["residual"]``).
+      (:func:`sdctrl.hybridbasis.select_residual`; ``info["residual"]``).  The kept
+      ``E`` is carried by the static correction modes' observabilities (2.22), so that
+      the realisation is exact (``info["residual_flexibility"]``).
       ``residual="fe"``: the thesis's hybrid, FE frequencies and no residual term;
     - optionally static correction modes for ``static_b``.
 
@@ -116,14 +118,16 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     -------
     HybridModel
         Modes sorted by frequency; ``shapes`` (also ``expanded``) on ``fe.dofs``;
-        ``E`` the kept residual flexibility at the test I/O (None if not fitted);
+        ``E`` None unless part of the kept residual flexibility could not be carried by
+        the correction modes;
         ``info`` holds ``"kind"`` (``"measured"``, ``"fe"``, ``"residual"`` for the static
         correction of the test inputs, ``"static"`` for ``static_b``, per mode),
         ``"measured"`` (bool mask), ``"pairing"`` (``test_mode``, ``fe_mode``, ``mac``,
         ``test_hz``, ``fe_hz`` of the kept measured modes), ``"mac"`` (FE x test MAC),
         ``"poor_pairs"`` (rows of the pairing with MAC < ``mac_min``), ``"absorbed"``
         (indices of absorbed ``nm`` modes), ``"expansion"`` (``A``), ``"mean_damping"``,
-        ``"kappa"``, ``"residual"`` (the chosen variant and the scores), ``"n_static"``.
+        ``"kappa"``, ``"residual"`` (the chosen variant and the scores), ``"n_static"``,
+        ``"residual_flexibility"`` (the kept ``E`` at the test I/O, or None).
 
     Raises
     ------
@@ -204,9 +208,35 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
             "residual": report, "n_static": int(np.sum(kinds == "static"))}
     if "mass_correction" in parts:
         info["mass_correction"] = parts["mass_correction"]
-    return HybridModel(np.diag(w2), Gamma, c @ shapes, phib, E=parts["E"], sensors=nm.sensors,
+    cphi, E = _realise_residual(c @ shapes, w2, phib, kinds, parts["E"])
+    info["residual_flexibility"] = parts["E"]
+    return HybridModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=nm.sensors,
                        actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info, fe=fe,
                        sensor_c=c, actuator_b=loads)
+
+
+def _realise_residual(cphi, w2, phib, kinds, E):
+    """The kept residual flexibility ``E`` carried by the static correction modes (2.22).
+
+    As the thesis incorporates the asymptotic term in the correction modes (2.22), the
+    observabilities of the static correction modes of the test inputs get ``D`` with
+    ``D diag(1/w^2) phib_r = E``: the model's static response at the tested I/O holds
+    ``E`` exactly, its realisation (:meth:`~NormalModeModel.to_statespace`) is exact for
+    every quantity, and ``E`` is dropped with them when the inputs change
+    (:meth:`HybridModel.with_io`).  What the modes cannot carry (rank) stays in ``E``.
+    """
+    if E is None:
+        return cphi, None
+    r = np.isin(kinds, ("residual", "static")) & (w2 > 0)
+    if not np.any(r):
+        return cphi, E
+    X = phib[r] / w2[r, None]
+    D = E @ np.linalg.pinv(X, rcond=1e-10)
+    left = E - D @ X
+    cphi = np.array(cphi)
+    cphi[:, r] += D
+    tiny = 1e-9 * max(np.abs(E).max(), 1e-300)
+    return cphi, (left if np.abs(left).max() > tiny else None)
 
 
 def _warn_left_out(nm) -> None:

@@ -382,6 +382,10 @@ def with_io(model, b=None, c=None, *, actuators=None, sensors=None,
         changes.update(phib=model.shapes.T @ B, actuator_b=B,
                        actuators=actuators if actuators is not None else alab)
         changes.update(_static_terms_dropped(model))
+        if Cm is None and model.sensor_c is not None:
+            # the residual flexibility of the old inputs, carried by the correction modes'
+            # observabilities (sdctrl.hybrid), belongs to them: back to the physical shapes
+            changes["cphi"] = model.sensor_c @ model.shapes
     elif actuators is not None:
         changes["actuators"] = actuators
     if Cm is not None:
