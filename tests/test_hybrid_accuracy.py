@@ -235,3 +235,19 @@ def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):
     r_pc = rms(closed[outs, list(range(len(SH)))], BAND)
     r_fb = rms(h.with_feedback(s, s.T, kp=kp, kv=kv).to_statespace("displacement"), BAND)
     np.testing.assert_allclose(r_pc, r_fb, rtol=1e-6)
+
+
+def test_modify_carries_the_same_static_correction_as_with_feedback(bed):
+    """A broken strut given as a stiffness change ``dK`` (reanalysis 5.2, loads 4.22) and as
+    a position feedback (5.3) is the same prediction; without the static correction the
+    reanalysis is the thesis's plain projection."""
+    h, s = bed["h"], bed["s"]
+    kp, _ = BROKEN
+    dK = kp * s @ s.T
+    a = h.modify(dK=dK).frf(FREQ, "acceleration").H
+    b = h.with_feedback(s, s.T, kp=kp).frf(FREQ, "acceleration").H
+    assert np.abs(a - b).max() < 1e-6 * np.abs(b).max()
+    c = h.modify(dK=dK, static=False).frf(FREQ, "acceleration").H
+    d = h.with_feedback(s, s.T, kp=kp, static=False).frf(FREQ, "acceleration").H
+    assert np.abs(c - d).max() < 1e-6 * np.abs(d).max()
+    assert np.abs(a - c).max() > 0.1 * np.abs(b).max()
