@@ -9,7 +9,7 @@ import scipy.sparse as sp
 import sdctrl as sd
 
 _FRF_ATTRS = ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence", "units")
-_FE_ATTRS = ("M", "K", "C", "dofs", "nodes", "elements")
+_FE_ATTRS = ("M", "K", "C", "dofs", "nodes", "elements", "assembly")
 
 
 def assert_same(a, b, where="obj"):

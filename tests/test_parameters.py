@@ -82,6 +82,13 @@ def test_parameter_validation():
     assert sd.Parameter("k", dK=K, bounds=(-0.5, 0.2)).standard_change == 0.2
     assert sd.Parameter("k", dK=K, bounds=(-0.5, 0.0)).standard_change == -0.5
     assert sd.Parameter("k", dK=K, scale=0.3).standard_change == 0.3
+    # scale is the size of the change; its direction follows the bounds
+    assert sd.Parameter("k", dK=K, scale=0.3, bounds=(-0.5, 0.0)).standard_change == -0.3
+    with pytest.raises(ValueError, match="scale must be a positive"):
+        sd.Parameter("k", dK=K, scale=-0.3)
+    with pytest.raises(TypeError, match="description must be a string"):
+        sd.Parameter("k", dK=K, description=["links"])
+    assert sd.Parameter("k", dK=K, description=None).description == ""
     with pytest.raises(ValueError, match="symmetric"):
         sd.Parameter("k", dK=[[1.0, 2.0], [0.0, 1.0]])
     with pytest.raises(ValueError, match="square"):

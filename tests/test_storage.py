@@ -377,3 +377,29 @@ def test_cli_info_prints_a_saved_model(tmp_path, capsys):
     (tmp_path / "bad.npz").write_bytes(b"garbage")
     assert main(["info", str(tmp_path / "bad.npz")]) == 2
     assert "bad.npz" in capsys.readouterr().err
+
+
+def test_fe_assembly_survives_save_load_and_apply_parameters(testbed_models, tmp_path):
+    """The element record of an assembled model comes back (helpers build the same
+    parameters) and is carried over by apply_parameters; a tampered record is refused."""
+    from sdctrl.updating import apply_parameters
+
+    fe = testbed_models["fe"]
+    back = sd.load(sd.save(fe, tmp_path / "fe"))
+    assert back.assembly is not None and not back.assembly.xyz.flags.writeable
+    links, back_links = (m.stiffness_parameter("links", section=["post_AB", "post_C"])
+                         for m in (fe, back))
+    assert (links.dK != back_links.dK).nnz == 0
+    plates = fe.mass_parameter("plates", ["N31", "N32"])
+    assert (plates.dM != back.mass_parameter("plates", ["N31", "N32"]).dM).nnz == 0
+    updated = apply_parameters(fe, [links], [0.5])
+    assert updated.assembly is fe.assembly
+    assert (updated.stiffness_parameter("links", section=["post_AB", "post_C"]).dK
+            != links.dK).nnz == 0
+    with zipfile.ZipFile(tmp_path / "fe.npz") as zf:
+        members = {n: zf.read(n) for n in zf.namelist()}
+    meta = json.loads(np.load(io.BytesIO(members["__sdctrl__.npy"])).tobytes())
+    gidx = meta["root"]["object"][1]["assembly"]["object"][1]["gidx"]["array"]
+    members[f"{gidx}.npy"] = _npy(np.full((len(fe.assembly.names), 6), 10**6))
+    with pytest.raises(ValueError, match="gidx"):
+        sd.load(_zip(tmp_path / "bad.npz", _with_meta(members, meta)))

@@ -20,12 +20,18 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from sdctrl._validate import as_array, check_freq, check_labels, check_quantity
+from sdctrl._validate import as_array, check_freq, check_labels, check_quantity, check_scalar
 from sdctrl.fe import eigen, reduction
 from sdctrl.fe import static as statics
 from sdctrl.fe.eigen import RIGID_RTOL
 from sdctrl.fe.groups import Assembly, ElementGroups
-from sdctrl.fe.validation import check_matrix, check_positive_definite, io_shapes
+from sdctrl.fe.validation import (
+    check_matrix,
+    check_positive_definite,
+    dof_indices,
+    label_list,
+    shapes_on_dofs,
+)
 
 __all__ = ["FEModel"]
 
@@ -168,18 +174,7 @@ class FEModel(ElementGroups):
         -------
         ndarray of int
         """
-        if isinstance(labels, str):
-            labels = [labels]
-        out = []
-        for lab in labels:
-            if not isinstance(lab, str | np.str_):
-                raise TypeError(f"labels must be DOF label strings, got {lab!r}")
-            try:
-                out.append(self._index[str(lab)])
-            except KeyError:
-                raise ValueError(f"unknown DOF label {lab!r} (labels look like "
-                                 f"{self.dofs[0]!r})") from None
-        return np.asarray(out, dtype=int)
+        return dof_indices(self.dofs, labels, "labels", self._index)
 
     # --- input / output shapes --------------------------------------------------------
     def point(self, dofs, direction=None) -> np.ndarray:
@@ -201,12 +196,14 @@ class FEModel(ElementGroups):
         -------
         ndarray, shape (N, k)
         """
-        items = [dofs] if isinstance(dofs, str) else list(dofs)
+        items = label_list(dofs, "dofs")
         if not items:
             raise ValueError("dofs must name at least one DOF")
         B = np.zeros((self.N, len(items)))
         if direction is None:
-            B[self.dof_index(items), np.arange(len(items))] = 1.0
+            idx = dof_indices(self.dofs, items, "dofs", self._index,
+                              "; node names need a direction")
+            B[idx, np.arange(len(items))] = 1.0
             return B
         d = as_array(direction, "direction", shape=(3,))
         nd = np.linalg.norm(d)
@@ -265,11 +262,11 @@ class FEModel(ElementGroups):
 
     def _input(self, b, name: str = "b"):
         """(N, k) input array and labels (when built from DOF labels)."""
-        return io_shapes(b, self.N, self.point, name)
+        return shapes_on_dofs(b, self.N, self.dofs, name, index=self._index)
 
     def _output(self, c, name: str = "c"):
         """(k, N) output array and labels."""
-        return io_shapes(c, self.N, self.point, name, output=True)
+        return shapes_on_dofs(c, self.N, self.dofs, name, output=True, index=self._index)
 
     # --- eigen solutions (sdctrl.fe.eigen) ----------------------------------------------
     def _scale(self) -> tuple[float, float]:
@@ -285,7 +282,8 @@ class FEModel(ElementGroups):
         """Eigenvalues (rad/s)^2 and shapes of the lowest ``n`` modes, cached on the request
         (so a result never depends on the calls made before)."""
         method = eigen.check_request(n, self.N, method)
-        key = ("modes", method, None if sigma is None else float(sigma), int(n))
+        sigma = check_scalar(sigma, "sigma", optional=True)
+        key = ("modes", method, sigma, int(n))
         if key not in self._cache:
             self._cache[key] = eigen.eigensolve(self.K, self.M, int(n), method, sigma)
         return self._cache[key]
@@ -405,7 +403,8 @@ class FEModel(ElementGroups):
         P = as_array(phi_s, "phi_s", ndim=(1, 2))
         if P.shape[0] != self.N:
             raise ValueError(f"phi_s must have shape (N={self.N}, k), got {P.shape}")
-        return statics.principal_static_modes(P, self.M, rtol)
+        return statics.principal_static_modes(P, self.M, check_scalar(rtol, "rtol",
+                                                                      positive=True))
 
     # --- modal models (sdctrl.fe.reduction) ---------------------------------------------
     def normal_mode_model(self, b, c, n: int, damping=0.01, static=False, *,

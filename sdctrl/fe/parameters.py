@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from sdctrl._validate import check_scalar
 from sdctrl.fe.validation import check_matrix
 
 __all__ = ["Parameter", "load_shapes"]
@@ -48,20 +49,21 @@ class Parameter:
         model).  The default ``(-0.9, 9.0)`` keeps a group's own matrix positive
         (``1 + p >= 0.1``).  Infinite bounds are allowed.
     scale : float, optional
-        The parameter's standard change (Table 4.1): the change used by
-        :func:`sdctrl.identifiability`.  Default ``1`` (the matrices at their own size:
-        +100% of a group's stiffness, the given added mass), limited to the bounds (the
-        upper one, or the lower one when the upper is 0).
+        Size (positive) of the parameter's standard change (Table 4.1): the change used by
+        :func:`sdctrl.identifiability`, upwards (downwards when the upper bound is 0).
+        Default ``1`` (the matrices at their own size: +100% of a group's stiffness, the
+        given added mass), limited to the bounds.
     description : str
-        Free text shown in reports (e.g. which elements or nodes).
+        Free text shown in reports (e.g. which elements or nodes); None means "".
 
     Raises
     ------
     ValueError
         No matrix given, matrices not square, symmetric, finite or of one size, an empty
-        name, or bounds that are not ``lo < hi`` with ``lo <= 0 <= hi``.
+        name, bounds that are not ``lo < hi`` with ``lo <= 0 <= hi``, a ``scale`` that is
+        not a positive finite number.
     TypeError
-        ``name`` is not a string, or a matrix is not numeric.
+        ``name`` or ``description`` is not a string, a matrix or ``scale`` not numeric.
 
     Examples
     --------
@@ -101,13 +103,15 @@ class Parameter:
         if N is None:
             raise ValueError(f"Parameter {self.name!r} needs at least one of dM, dK, dC")
         sets(self, "bounds", check_bounds(self.bounds, f"Parameter {self.name!r}: bounds"))
-        if self.scale is not None:
-            s = float(self.scale)
-            if not math.isfinite(s) or s == 0:
-                raise ValueError(f"Parameter {self.name!r}: scale must be a finite non-zero "
-                                 f"change, got {self.scale!r}")
-            sets(self, "scale", s)
-        sets(self, "description", str(self.description))
+        sets(self, "scale", check_scalar(self.scale, f"Parameter {self.name!r}: scale",
+                                         positive=True, optional=True))
+        if self.description is None:
+            sets(self, "description", "")
+        elif not isinstance(self.description, str):
+            raise TypeError(f"Parameter {self.name!r}: description must be a string, got "
+                            f"{type(self.description).__name__}")
+        else:
+            sets(self, "description", str(self.description))
 
     def __repr__(self) -> str:
         parts = [k for k in ("dM", "dC", "dK") if getattr(self, k) is not None]
@@ -123,9 +127,9 @@ class Parameter:
     @property
     def standard_change(self) -> float:
         """The standard change of ``p`` (Table 4.1): ``scale``, or 1 limited to the bounds."""
-        if self.scale is not None:
-            return self.scale
         lo, hi = self.bounds
+        if self.scale is not None:
+            return self.scale if hi > 0 else -self.scale
         return min(1.0, hi) if hi > 0 else max(-1.0, lo)
 
     def matrices(self) -> tuple:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sdctrl._validate import QUANTITY_POWER
+from sdctrl._validate import QUANTITY_POWER, as_array, check_finite_result
 from sdctrl.fe.static import principal_static_basis
 
 __all__ = ["full_frf", "normal_mode_model"]
@@ -73,7 +73,7 @@ def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
 
 def _check_options(fe, n, damping, static, static_damping) -> np.ndarray:
     """Validated damping ratios (n,) and options of :func:`normal_mode_model`."""
-    z = np.asarray(damping, float)
+    z = as_array(damping, "damping", ndim=(0, 1))
     if z.ndim == 0:
         z = np.full(n, float(z))
     if z.shape != (n,) or not np.all(np.isfinite(z)) or np.any(z < 0):
@@ -149,6 +149,14 @@ def full_frf(fe, f, B, Cm, quantity: str) -> np.ndarray:
     for i in range(0, f.size, chunk):               # batched over frequency lines
         ww = w[i:i + chunk, None, None]
         Z = K - ww**2 * M + 1j * ww * C
-        X = np.linalg.solve(Z, np.broadcast_to(B.astype(complex), (ww.shape[0],) + B.shape))
+        try:
+            X = np.linalg.solve(Z, np.broadcast_to(B.astype(complex),
+                                                   (ww.shape[0],) + B.shape))
+        except np.linalg.LinAlgError:
+            raise ValueError("the dynamic stiffness K - w^2 M + j w C is singular or not "
+                             "finite at some lines of freq: freq (Hz) is out of the range "
+                             "double precision can solve for this model") from None
         H[i:i + chunk] = Cm @ X
-    return H * ((1j * w) ** QUANTITY_POWER[quantity])[:, None, None]
+    H = H * ((1j * w) ** QUANTITY_POWER[quantity])[:, None, None]
+    check_finite_result(H, "the FRF", "freq")
+    return H

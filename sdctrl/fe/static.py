@@ -98,7 +98,7 @@ def static_correction(fe, B: np.ndarray, phi) -> np.ndarray:
     return X - Pf @ ((Pf.T @ B) / lam[flex][:, None])
 
 
-def principal_static_modes(phi_s, M, rtol: float = 1e-8) -> np.ndarray:
+def principal_static_modes(phi_s, M, rtol: float = 1e-8, atol: float = 0.0) -> np.ndarray:
     """Principal static modes by the mass-orthogonal SVD, eq. (4.24).
 
     The eigenvalues ``Sigma_s`` and eigenvectors ``Psi_s`` of ``phi_s^T M phi_s`` give
@@ -114,6 +114,9 @@ def principal_static_modes(phi_s, M, rtol: float = 1e-8) -> np.ndarray:
         Mass matrix.
     rtol : float
         Relative threshold on the mass-orthogonal singular values.
+    atol : float
+        Absolute threshold on them as well (``Sigma_s > atol``): for vectors of unit mass
+        norm, a direction that lost all but ``atol`` of its squared norm to a projection.
 
     Returns
     -------
@@ -129,9 +132,9 @@ def principal_static_modes(phi_s, M, rtol: float = 1e-8) -> np.ndarray:
     sig, psi = np.linalg.eigh(S)
     order = np.argsort(sig)[::-1]
     sig, psi = sig[order], psi[:, order]
-    if sig.size == 0 or sig[0] <= 0:
+    if sig.size == 0 or sig[0] <= atol or sig[0] <= 0:
         return np.zeros((P.shape[0], 0))
-    keep = sig > rtol * sig[0]
+    keep = sig > max(rtol * sig[0], atol)
     return P @ (psi[:, keep] / np.sqrt(sig[keep]))
 
 

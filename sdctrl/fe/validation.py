@@ -6,7 +6,7 @@ live on FE DOFs (:mod:`sdctrl.hybridmodel`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -14,8 +14,8 @@ import scipy.sparse.linalg as spla
 
 from sdctrl._validate import as_array
 
-__all__ = ["check_fe_model", "check_matrix", "check_positive_definite", "io_shapes",
-           "shapes_on_dofs"]
+__all__ = ["check_fe_model", "check_matrix", "check_positive_definite", "dof_indices",
+           "io_shapes", "label_list", "shapes_on_dofs"]
 
 _SYM_RTOL = 1e-8
 
@@ -148,7 +148,7 @@ def io_shapes(x, N: int, point, name: str, output: bool = False):
     return A, None
 
 
-def shapes_on_dofs(x, N: int, dofs, name: str, output: bool = False):
+def shapes_on_dofs(x, N: int, dofs, name: str, output: bool = False, index=None):
     """:func:`io_shapes` on a list of DOF labels: labels give unit point shapes.
 
     Parameters
@@ -163,6 +163,8 @@ def shapes_on_dofs(x, N: int, dofs, name: str, output: bool = False):
         Name of ``x`` in error messages.
     output : bool
         Output shapes (k, N) instead of input shapes (N, k).
+    index : mapping, optional
+        ``label -> row`` of ``dofs`` when already built.
 
     Returns
     -------
@@ -170,21 +172,74 @@ def shapes_on_dofs(x, N: int, dofs, name: str, output: bool = False):
         (N, k) or (k, N).
     labels : tuple of str or None
     """
-    return io_shapes(x, N, lambda labels: _dof_rows(dofs, labels, name), name, output)
+    return io_shapes(x, N, lambda labels: _dof_rows(dofs, labels, name, index), name, output)
 
 
-def _dof_rows(dofs: Sequence[str], labels, name: str) -> np.ndarray:
-    """(N, k) point shapes of DOF labels on ``dofs``."""
+def label_list(x, name: str) -> list[str]:
+    """A DOF label or a sequence of DOF labels as a list of strings.
+
+    Parameters
+    ----------
+    x : str or sequence of str
+        The label(s).
+    name : str
+        Name of ``x`` in error messages.
+
+    Returns
+    -------
+    list of str
+    """
+    if isinstance(x, str):
+        return [str(x)]
+    if x is None or isinstance(x, bytes | Mapping) or not isinstance(x, Iterable):
+        raise TypeError(f"{name} must be a DOF label or a sequence of DOF labels, got "
+                        f"{type(x).__name__}")
+    labels = list(x)
+    for v in labels:
+        if not isinstance(v, str):
+            raise TypeError(f"{name} must hold DOF label strings, got {v!r:.40}")
+    return [str(v) for v in labels]
+
+
+def dof_indices(dofs: Sequence[str] | None, labels, name: str,
+                index: Mapping | None = None, hint: str = "") -> np.ndarray:
+    """Indices in ``dofs`` of DOF label(s), the errors naming the argument ``name``.
+
+    Parameters
+    ----------
+    dofs : sequence of str or None
+        The DOF labels of a model (None: labels are refused).
+    labels : str or sequence of str
+        The labels to find.
+    name : str
+        Name of ``labels`` in error messages.
+    index : mapping, optional
+        ``label -> index`` of ``dofs`` when already built.
+    hint : str
+        Appended to the message about an unknown label.
+
+    Returns
+    -------
+    ndarray of int
+    """
     if dofs is None:
         raise ValueError(f"{name} given as DOF labels but the model has no dofs")
-    labels = [labels] if isinstance(labels, str) else [str(v) for v in labels]
-    index = {d: i for i, d in enumerate(dofs)}
-    B = np.zeros((len(dofs), len(labels)))
+    labels = label_list(labels, name)
+    index = {d: i for i, d in enumerate(dofs)} if index is None else index
+    out = np.empty(len(labels), dtype=int)
     for j, lab in enumerate(labels):
         if lab not in index:
             raise ValueError(f"{name}: unknown DOF label {lab!r} (labels look like "
-                             f"{dofs[0]!r})")
-        B[index[lab], j] = 1.0
+                             f"{dofs[0]!r}{hint})")
+        out[j] = index[lab]
+    return out
+
+
+def _dof_rows(dofs: Sequence[str], labels, name: str, index=None) -> np.ndarray:
+    """(N, k) point shapes of DOF labels on ``dofs``."""
+    idx = dof_indices(dofs, labels, name, index)
+    B = np.zeros((len(dofs), idx.size))
+    B[idx, np.arange(idx.size)] = 1.0
     return B
 
 

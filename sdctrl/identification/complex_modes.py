@@ -24,8 +24,8 @@ from sdctrl._validate import (
     check_quantity,
     check_scalar,
     readonly,
-    signal_names,
 )
+from sdctrl.identification.realisation import to_statespace
 
 __all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
 
@@ -433,116 +433,3 @@ def frf_array(poles, residues, E, F, s) -> np.ndarray:
     if F is not None and np.any(F):
         H = H + F[None] / (s[:, None, None] ** 2)
     return H
-
-
-def to_statespace(cm: ComplexModeModel, quantity: str = "displacement",
-                  omega_c: float | None = None):
-    """Real 2x2-block state-space form (3.26)-(3.33) of a complex-mode model.
-
-    See :meth:`ComplexModeModel.to_statespace` (notes).
-
-    Parameters
-    ----------
-    cm : ComplexModeModel
-        The model.
-    quantity : {"displacement", "velocity", "acceleration"}
-        Output quantity.
-    omega_c : float, optional
-        Cut-off (rad/s) of the correction filter of the improper terms.
-
-    Returns
-    -------
-    control.StateSpace
-        Outputs named after the sensors, inputs after the actuators followed by ``_u``.
-    """
-    q = check_quantity(quantity, "quantity")
-    omega_c = check_scalar(omega_c, "omega_c", positive=True, optional=True)
-    with np.errstate(all="ignore"):
-        A, B, C, D, states = _realisation(cm, QUANTITY_POWER[q], omega_c)
-    check_finite_result([np.abs(X).max(initial=0.0) for X in (A, B, C, D)], "the realisation",
-                        "omega_c or the model's poles, residues, E, F")
-    import control
-
-    inputs, outputs = signal_names(cm.sensors, cm.actuators)
-    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
-
-
-def _realisation(cm: ComplexModeModel, kq: int, omega_c: float | None):
-    """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``kq``."""
-    ns, na = cm.ns, cm.na
-    blocks_A, Cs, Bs, states = [], [], [], []
-    U, sv, Vh = np.linalg.svd(cm.residues, full_matrices=False)
-    for j in range(cm.n):
-        lam = cm.poles[j]
-        w = abs(lam)
-        zw = -lam.real
-        wd = lam.imag
-        Aj = np.array([[0.0, 1.0], [-w**2, -2 * zw]])
-        smax = sv[j, 0] if sv.shape[1] else 0.0
-        for k in range(sv.shape[1]):
-            if sv[j, k] <= 1e-13 * smax or smax == 0:
-                continue
-            cpsi = U[j, :, k]
-            psib = sv[j, k] * Vh[j, k, :]
-            C1 = cpsi.real + (zw / wd) * cpsi.imag            # (3.33), a = 1
-            C2 = cpsi.imag / wd
-            B1 = 2 * psib.real
-            B2 = -2 * (zw * psib.real + wd * psib.imag)
-            blocks_A.append(Aj)
-            Cs.append(np.column_stack([C1, C2]))
-            Bs.append(np.vstack([B1, B2]))
-            states += [f"x{j}_{k}", f"dx{j}_{k}"]
-    from scipy.linalg import block_diag
-
-    A = block_diag(*blocks_A) if blocks_A else np.zeros((0, 0))
-    B = np.vstack(Bs) if Bs else np.zeros((0, na))
-    C = np.hstack(Cs) if Cs else np.zeros((ns, 0))
-    E, F = np.asarray(cm.E, float), np.asarray(cm.F, float)
-    hasF = bool(np.any(F))
-    hasE = bool(np.any(E))
-    P1 = P2 = None
-    if kq == 0:
-        D = E.copy()
-    elif kq == 1:
-        C, D = C @ A, C @ B
-        P1 = E if hasE else None
-    else:
-        D = C @ A @ B + F
-        P1 = C @ B
-        C = C @ A @ A
-        P2 = E if hasE else None
-        if np.abs(P1).max(initial=0) <= 1e-12 * max(np.abs(D).max(initial=0), 1e-300):
-            P1 = None
-    extra = []
-    if hasF and kq < 2:
-        # F/s^2 (displacement): double integrators; F/s (velocity): integrators; one per
-        # rank component of F = U S V^T (at most min(ns, na) of them)
-        Uf, Sf, Vft = np.linalg.svd(F, full_matrices=False)
-        rf = int(np.sum(Sf > 1e-14 * Sf[0]))
-        Cf, Bf = Uf[:, :rf] * Sf[:rf], Vft[:rf]
-        Ii, Zi = np.eye(rf), np.zeros((rf, rf))
-        if kq == 0:
-            extra.append((np.block([[Zi, Ii], [Zi, Zi]]), np.vstack([np.zeros((rf, na)), Bf]),
-                          np.hstack([Cf, np.zeros((ns, rf))]), np.zeros((ns, na)),
-                          [f"r{a}" for a in range(rf)] + [f"dr{a}" for a in range(rf)]))
-        else:
-            extra.append((Zi, Bf, Cf, np.zeros((ns, na)), [f"r{a}" for a in range(rf)]))
-    if P1 is not None or P2 is not None:
-        wc = np.float64(omega_c if omega_c is not None else 10.0 * (
-            np.abs(cm.poles).max() if cm.n else 2 * np.pi * (cm.band or (1, 1))[1]))
-        P1 = np.zeros((ns, na)) if P1 is None else P1
-        P2 = np.zeros((ns, na)) if P2 is None else P2
-        Ii, Zi = np.eye(na), np.zeros((na, na))
-        Ac = np.block([[Zi, Ii], [-wc**2 * Ii, -2 * wc * Ii]])
-        Bc = np.vstack([Zi, wc**2 * Ii])
-        Cc = np.hstack([-wc**2 * P2, P1 - 2 * wc * P2])
-        Dc = wc**2 * P2
-        extra.append((Ac, Bc, Cc, Dc, [f"zc{a}" for a in range(na)] +
-                      [f"dzc{a}" for a in range(na)]))
-    for Ae, Be, Ce, De, st in extra:
-        A = block_diag(A, Ae)
-        B = np.vstack([B, Be])
-        C = np.hstack([C, Ce])
-        D = D + De
-        states += st
-    return A, B, C, D, states

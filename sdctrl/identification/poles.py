@@ -192,8 +192,8 @@ def initial_poles(frf, band=None, n: int | None = None, damping: float = 0.01,
         raise ValueError(f"damping must be a ratio in (0, 1), got {damping!r}")
     if not isinstance(n_sv, int | np.integer) or n_sv < 1:
         raise ValueError(f"n_sv must be a positive integer, got {n_sv!r}")
-    if not (isinstance(prominence, int | float) and prominence > 0):
-        raise ValueError(f"prominence must be a positive number of dB, got {prominence!r}")
+    if not (isinstance(prominence, int | float) and 0 < prominence < np.inf):
+        raise ValueError(f"prominence must be a positive finite number of dB, got {prominence!r}")
     if frf.freq.size < 3:
         raise ValueError(f"frf must have at least 3 frequency lines in the band, "
                          f"got {frf.freq.size}")

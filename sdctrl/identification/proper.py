@@ -30,6 +30,9 @@ __all__ = ["normal_modes", "proper_modes", "scaled_modes", "transformation"]
 DELTA_WARN = 0.5
 #: at or above this spectral radius ``I - delta^2`` of (3.51) is near singular: refused
 DELTA_MAX = 0.9
+#: poles of magnitude (rad/s) beyond this, or below its inverse, are refused: Omega = |lambda|^2
+#: and the products of (3.44) leave double precision (1e150^2 = 1e300)
+POLE_RANGE = 1e150
 
 
 def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter: int = 50):
@@ -134,6 +137,11 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         sel = _mode_selection(modes, cm.n)
         lam, R = lam[sel], R[sel]
     n = lam.size
+    if n and not (np.abs(lam).max() <= POLE_RANGE and np.abs(lam).min() >= 1 / POLE_RANGE):
+        raise ValueError(f"cm: poles of magnitude {np.abs(lam).min():.3g} to "
+                         f"{np.abs(lam).max():.3g} rad/s; normal modes need |lambda| in "
+                         f"[{1 / POLE_RANGE:g}, {POLE_RANGE:g}] (Omega = |lambda|^2 and the "
+                         "transformation (3.44) in double precision): change the time unit")
     pairs = check_collocated(cm.collocated if collocated is None else collocated, ns, na,
                              "collocated", cm.sensors, cm.actuators)
     if not pairs:

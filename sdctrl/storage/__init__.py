@@ -26,17 +26,20 @@ function giving its fields and a function building it from them (validating them
 constructor does), and the dtype kinds allowed for its array fields.  A new result type registers
 itself with one call, usually::
 
-    register_attrs("UpdateResult", "sdctrl.updating.fit:UpdateResult",
-                   kinds={"values_array": "f"})
+    register_attrs("RobustResult", "sdctrl.robust:RobustResult",
+                   kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)
 
-(fields read from the dataclass; the constructor validates) or, for full control,
+(fields read from the dataclass; ``build``, or else the constructor, validates them: see
+:mod:`sdctrl.storage.builtin` and, for the results of FE updating, :mod:`sdctrl.storage.results`)
+or, for full control,
 ``register(Codec(name, cls, to_fields, from_fields, kinds))``.  Names are never reused for another
 type: files written today must load tomorrow.
 """
 
 from __future__ import annotations
 
-from sdctrl.storage import builtin  # noqa: F401  (registers the built-in types)
+# importing builtin and results registers the built-in types and those of FE updating
+from sdctrl.storage import builtin, results  # noqa: F401
 from sdctrl.storage.archive import FORMAT_VERSION, StorageWarning, load, save
 from sdctrl.storage.registry import Codec, register, register_attrs, registered
 

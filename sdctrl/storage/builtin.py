@@ -62,7 +62,8 @@ register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
 register_attrs("NormalModeModel", "sdctrl.modal:NormalModeModel", kinds=_MODAL)
 register_attrs("HybridModel", "sdctrl.predictions:HybridModel", kinds=_MODAL)
 register_attrs("FEModel", "sdctrl.fe:FEModel",
-               ("M", "K", "C", "dofs", "nodes", "elements"), kinds={"M": "f", "K": "f", "C": "f"})
+               ("M", "K", "C", "dofs", "nodes", "elements", "assembly"),
+               kinds={"M": "f", "K": "f", "C": "f"})
 register_attrs("UncertainModel", "sdctrl.uncertainty:UncertainModel",
                kinds={"dGamma": "f", "dOmega": "f", "db": "f", "dc": "f"},
                build=_build_uncertain, lenient=())

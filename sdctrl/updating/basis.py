@@ -41,6 +41,12 @@ __all__ = ["ReducedBasis", "reduced_basis"]
 STATIC_RTOL = 1e-6
 #: parameters touching more DOFs than this use modal load shapes ``dX phi`` (see reduced_basis)
 RANGE_MAX = 600
+#: a static correction smaller than this fraction of its static response is round-off (the
+#: basis already represents that response: all the modes of a small model are retained)
+STATIC_ROUNDOFF = 1e-9
+#: a new direction keeping less than this fraction of its squared mass norm once the basis's
+#: part is removed lies in the basis (round-off of an already complete basis)
+NEW_DIRECTION = 1e-8
 
 
 def _bordered(A, B, D):
@@ -166,10 +172,14 @@ class ReducedBasis:
         ndarray, shape (N, k)
         """
         B, _ = shapes_on_dofs(b, self.N, self.fe.dofs, "b")
+        return self._correction(B)[0]
+
+    def _correction(self, B):
+        """``(psi, X)``: the static correction of ``B`` and its static response ``K^-1 B``."""
         X = self.fe.static_response(B)
         r = self.n_rigid
         Tf = self.T[:, r:]
-        return X - Tf @ np.linalg.solve(self.Kr[r:, r:], Tf.T @ B)
+        return X - Tf @ np.linalg.solve(self.Kr[r:, r:], Tf.T @ B), X
 
     def loads(self, b) -> tuple[np.ndarray, np.ndarray]:
         """Modal projection and static correction of load shapes, consistently with the basis.
@@ -204,7 +214,9 @@ class ReducedBasis:
             Load shapes ``F_U``.
         rtol : float
             Principal directions with a mass-orthogonal singular value below ``rtol``
-            times the largest are dropped (4.24).
+            times the largest are dropped (4.24).  Corrections that the basis already
+            holds up to round-off are dropped too (:data:`STATIC_ROUNDOFF`,
+            :data:`NEW_DIRECTION`), so the basis never exceeds ``N`` independent vectors.
         max_modes : int, optional
             Keep at most this many principal static modes (largest first).
         source : str
@@ -214,23 +226,41 @@ class ReducedBasis:
         -------
         ReducedBasis
         """
-        psi = self.static_correction(b)
-        return self._append(psi, rtol, max_modes, source)
+        B, _ = shapes_on_dofs(b, self.N, self.fe.dofs, "b")
+        psi, X = self._correction(B)
+        return self._append(psi, X, rtol, max_modes, source)
 
-    def _append(self, psi, rtol, max_modes, source) -> ReducedBasis:
+    def _append(self, psi, X, rtol, max_modes, source) -> ReducedBasis:
+        """Append the significant part of the corrections ``psi`` of static responses ``X``.
+
+        A mass-weighted orthonormalisation against the basis with relative tolerances, so
+        that the basis stays mass-orthonormal and never holds more than ``N`` independent
+        vectors (the reduced mass ``T^T M T`` stays the identity):
+
+        1. ``psi`` is made ``M``-orthogonal to ``T``; a column left with less than
+           :data:`STATIC_ROUNDOFF` of the mass norm of its static response ``X`` is
+           round-off, not a direction (the basis already represents that response: a small
+           model with all its modes retained has nothing to correct);
+        2. principal static modes (4.24): directions below ``rtol`` of the largest dropped;
+        3. re-orthogonalisation against ``T`` (a second pass, as in Gram-Schmidt with
+           reorthogonalisation); a principal direction of unit mass norm keeping less than
+           :data:`NEW_DIRECTION` of its squared norm lies in ``span(T)`` and is dropped.
+        """
         M, K = self.fe.M, self.fe.K
         T = self.T
+        if T.shape[1] >= self.N or not psi.size:
+            return self
         psi = psi - T @ (T.T @ np.asarray(M @ psi))          # exact M-orthogonality
-        ref = max(np.sqrt(np.abs(np.diag(self.Mr)).max()), 1e-300)
         norms = np.sqrt(np.abs(np.einsum("ij,ij->j", psi, np.asarray(M @ psi))))
-        psi = psi[:, norms > 1e-12 * ref * max(norms.max(), 1e-300)] if psi.size else psi
+        xnorms = np.sqrt(np.abs(np.einsum("ij,ij->j", X, np.asarray(M @ X))))
+        psi = psi[:, norms > STATIC_ROUNDOFF * xnorms]
         if not psi.shape[1]:
             return self
         V = principal_static_modes(psi, M, rtol)
         if max_modes is not None:
             V = V[:, :max(int(max_modes), 0)]
         V = V - T @ (T.T @ np.asarray(M @ V))                # clean-up after the SVD
-        V = principal_static_modes(V, M, rtol)
+        V = principal_static_modes(V, M, rtol, atol=NEW_DIRECTION)[:, :self.N - T.shape[1]]
         if not V.shape[1]:
             return self
         KV = np.asarray(K @ V)
@@ -300,7 +330,10 @@ def reduced_basis(fe, parameters=(), inputs=None, *, fmax: float | None = None,
         wider ones fall back to modal loads), ``"modal"`` the loads ``dX phi`` they
         apply in the retained modes (the static part of the modes' first-order change).
     rtol : float
-        Relative threshold of the principal static modes (4.24).
+        Relative threshold of the principal static modes (4.24).  Static corrections that
+        the basis already represents up to round-off (e.g. a small model with all its
+        modes retained) add no vector: the basis stays mass-orthonormal with at most ``N``
+        vectors (see :meth:`ReducedBasis.augmented`).
     max_static : int, optional
         At most this many principal static modes per parameter.
 

@@ -32,6 +32,7 @@ from scipy.optimize import least_squares
 from sdctrl._progress import progress_bar
 from sdctrl._threads import single_thread
 from sdctrl._util import markdown_table
+from sdctrl._validate import check_int, check_scalar
 from sdctrl.fe.parameters import Parameter
 from sdctrl.fe.validation import check_fe_model
 from sdctrl.updating.measured import measured_modes, place_test
@@ -195,8 +196,8 @@ def damping_choice(fe, damping):
     except (TypeError, ValueError):
         raise TypeError("damping must be None, 'data', 'fe', a damping ratio or an identified "
                         f"model, got {type(damping).__name__}") from None
-    if not np.isfinite(z) or z < 0:
-        raise ValueError(f"damping ratio must be finite and non-negative, got {damping!r}")
+    if not (np.isfinite(z) and 0 <= z <= 1):
+        raise ValueError(f"damping must be a modal damping ratio in [0, 1], got {damping!r}")
     return ("modal", z), None
 
 
@@ -285,6 +286,8 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
         raise ValueError(f"strategy must be one of {_STRATEGIES}, got {strategy!r}")
     measured = place_test(fe, frf, band)
     choice, given = damping_choice(fe, damping)
+    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
+    max_nfev = check_int(max_nfev, "max_nfev", minimum=1, optional=True)
     if fmax is None:
         fmax = FMAX_FACTOR * float(measured.freq[-1])
     modes = measured_modes(measured, identified if identified is not None else given)

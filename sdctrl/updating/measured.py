@@ -106,9 +106,10 @@ def place_test(fe, frf, band=None, name: str = "frf") -> Measured:
     w = 2 * np.pi * data.freq
     H = data.H / ((1j * w) ** QUANTITY_POWER[data.quantity])[:, None, None]
     a = np.abs(H)
-    if not np.all(a > 0):
-        raise ValueError(f"{name}: |H| must be positive on every line of the band (the logLS "
-                         "cost takes its logarithm)")
+    if not np.all(np.isfinite(a) & (a > 0)):
+        raise ValueError(f"{name}: the displacement |H / (j w)^k| must be finite and positive "
+                         "on every line of the band (the logLS cost takes its logarithm); "
+                         "frequencies or values too large or too small for double precision?")
     H.setflags(write=False)
     logH = np.log(a)
     logH.setflags(write=False)
@@ -197,9 +198,13 @@ def identify_test(measured: Measured):
     if step > 1:
         frf = FRF(frf.freq[::step], frf.H[::step], quantity=frf.quantity,
                   sensors=frf.sensors, actuators=frf.actuators, collocated=frf.collocated)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return identify(frf, progress=False)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return identify(frf, progress=False)
+    except (ValueError, np.linalg.LinAlgError) as exc:   # numerical trouble named, not hidden
+        raise ValueError(f"frf: the modes of the test could not be identified "
+                         f"({type(exc).__name__}: {exc})") from None
 
 
 def measured_modes(measured: Measured, identified=None) -> MeasuredModes:

@@ -95,8 +95,11 @@ def apply_parameters(fe, parameters, values):
     Returns
     -------
     FEModel
-        Sparse when ``fe`` is, with the same labels, nodes and elements (the element
-        records of ``fe.assembly`` describe the nominal model and are not carried over).
+        Sparse when ``fe`` is, with the same labels, nodes, elements and
+        ``fe.assembly``: the element record of the nominal model, so that
+        :meth:`~sdctrl.FEModel.stiffness_parameter` and the other helpers still work on
+        the updated model (they build their matrices from the nominal element properties:
+        ``p`` then scales the nominal stiffness or mass of the selected elements).
     """
     from sdctrl.fe import FEModel
 
@@ -115,7 +118,8 @@ def apply_parameters(fe, parameters, values):
             else:
                 mats[key] = np.asarray(base) + float(v) * (X.toarray() if sp.issparse(X) else X)
     return FEModel(mats["M"], mats["K"], mats["C"], dofs=fe.dofs,
-                   nodes=None if fe.nodes is None else dict(fe.nodes), elements=fe.elements)
+                   nodes=None if fe.nodes is None else dict(fe.nodes), elements=fe.elements,
+                   assembly=fe.assembly)
 
 
 @dataclass(frozen=True, eq=False)

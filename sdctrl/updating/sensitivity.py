@@ -32,12 +32,13 @@ import numpy as np
 from sdctrl._progress import progress_bar
 from sdctrl._threads import single_thread
 from sdctrl._util import markdown_table
+from sdctrl._validate import check_int, check_scalar
 from sdctrl.fe.validation import check_fe_model
 from sdctrl.updating.fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating.measured import error_level, identify_test, measured_modes, place_test
 from sdctrl.updating.problem import build_problem
 
-__all__ = ["CostMap", "Identifiability", "identifiability"]
+__all__ = ["CostMap", "CostProblem", "Identifiability", "identifiability"]
 
 #: pairs whose effects correlate above this are confounded
 CORRELATION_MAX = 0.95
@@ -107,7 +108,7 @@ class Identifiability:
     separation : ndarray, shape (n, n)
         Mean squared effect of the least-distinguishable unit combination of standard
         changes of each pair (inf on the diagonal).
-    problem : object
+    problem : CostProblem
         The reduced update problem (for :meth:`cost_map`).
     """
 
@@ -282,8 +283,12 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     pars = check_parameters(parameters, fe)
     measured = place_test(fe, frf, band)
     choice, given = damping_choice(fe, damping)
-    if not 0 < corr_max < 1:
+    corr_max = check_scalar(corr_max, "corr_max", positive=True)
+    if not corr_max < 1:
         raise ValueError(f"corr_max must lie in (0, 1), got {corr_max!r}")
+    noise = check_scalar(noise, "noise", nonneg=True, optional=True)
+    n_averages = check_int(n_averages, "n_averages", minimum=1)
+    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
     cm = None
     need_id = (choice[0] == "modal" and choice[1] is None and given is None) or \
         (noise is None and measured.frf.coherence is None)
@@ -293,12 +298,10 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     if choice[0] == "modal" and choice[1] is None:
         modes = measured_modes(measured, given if given is not None else cm)
     if noise is not None:
-        level, source = float(noise), "given"
-        if not np.isfinite(level) or level < 0:
-            raise ValueError(f"noise must be a non-negative error level, got {noise!r}")
+        level, source = noise, "given"
     else:
         level, source = error_level(measured, cm, n_averages)
-    fmax = FMAX_FACTOR * float(measured.freq[-1]) if fmax is None else float(fmax)
+    fmax = FMAX_FACTOR * float(measured.freq[-1]) if fmax is None else fmax
     with single_thread():
         prob = build_problem(fe, measured, pars, choice, modes, fmax=fmax)
         deltas = np.array([p.standard_change for p in pars])
@@ -310,13 +313,25 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     confounded, sep = _pairs(names, corr, J, level, weak, corr_max)
     return Identifiability(names, dict(zip(names, sens.tolist())), corr, confounded, weak,
                            level, source, dict(zip(names, deltas.tolist())), sep,
-                           _Problem(prob.rm, measured.omega, measured.logH, pars))
+                           CostProblem(prob.rm, measured.omega, measured.logH, pars))
 
 
 @dataclass(frozen=True, eq=False)
-class _Problem:
-    """What cost maps need, lean enough to pickle for executors: the reduced model, the
-    data's lines and ``log |H|``, the parameters."""
+class CostProblem:
+    """What cost maps need, lean enough to pickle for executors (and to save with
+    :func:`sdctrl.save`): the reduced model, the data's lines and ``log |H|``, the parameters.
+
+    Parameters
+    ----------
+    rm : ReducedModel
+        The parametric reduced model (4.17) on the test's sensors and actuators.
+    omega : ndarray, shape (nf,)
+        The test's lines (rad/s).
+    logH : ndarray, shape (nf, ns, na)
+        ``log |H|`` of the measured displacement FRF.
+    parameters : tuple of Parameter
+        The parameters, in the order of ``rm.names``.
+    """
 
     rm: object
     omega: np.ndarray
@@ -324,5 +339,16 @@ class _Problem:
     parameters: tuple
 
     def cost(self, p) -> float:
+        """logLS cost (3.12) at parameter values ``p``.
+
+        Parameters
+        ----------
+        p : array_like, shape (npar,)
+            Parameter values.
+
+        Returns
+        -------
+        float
+        """
         r = np.log(np.abs(self.rm.frf(p, self.omega)) + 1e-300) - self.logH
         return float(np.mean(r**2))
