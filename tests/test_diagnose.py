@@ -334,3 +334,16 @@ def test_command_line(tmp_path):
     bad = subprocess.run(cmd[:5] + ["missing.uff"], cwd=tmp_path, env=env, capture_output=True,
                          text=True, timeout=120, check=False)
     assert bad.returncode == 2 and "missing.uff" in bad.stderr
+
+
+def test_effects_saved_and_loaded(tmp_path):
+    d = diagnosis(CASES["bar"])
+    e = d.effects[0]
+    back = sd.load(sd.save(e, tmp_path / "effect"))
+    assert isinstance(back, sd.Effect) and back.kind == e.kind and back.location == e.location
+    assert back.parameters == e.parameters
+    assert (back.error_before, back.error_after) == (e.error_before, e.error_after)
+    with pytest.raises(TypeError, match="parameters"):
+        sd.Effect("delay", None, {"tau": "1 ms"}, 1.0, 0.5)
+    with pytest.raises(ValueError, match="kind"):
+        sd.Effect("crack", None, {}, 1.0, 0.5)
