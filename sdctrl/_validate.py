@@ -186,6 +186,14 @@ def check_seed(seed, name: str = "seed"):
     return check_int(seed, name, minimum=0)
 
 
+def check_executor(executor, name: str = "executor"):
+    """None (serial) or an executor with a callable ``map`` (``concurrent.futures``, Dask)."""
+    if executor is not None and not callable(getattr(executor, "map", None)):
+        raise TypeError(f"{name} must be a concurrent.futures.Executor (an object with a "
+                        f"map method) or None, got {type(executor).__name__}")
+    return executor
+
+
 def check_info(info, name: str = "info") -> dict:
     """A copy of a diagnostics mapping (``info`` of models and results)."""
     from collections.abc import Mapping

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from sdctrl.mu_lmi import certify_dg, lmi_bound
 from sdctrl.mu_structure import BlockStructure, Factored
 
 __all__ = [
@@ -223,7 +224,7 @@ def _two_loop(g, pairs):
 
 
 def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol: float = 1e-4,
-             maxiter: int = 3000):
+             maxiter: int = 3000, polish: bool = False):
     """Mixed mu upper bound of ``M`` by optimised D-G scalings (1).
 
     Parameters
@@ -241,6 +242,12 @@ def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol:
         Relative decrease of ``bound^2`` over 30 iterations below which the search stops.
     maxiter : int
         Maximum BFGS iterations.
+    polish : bool
+        Then solve the LMI (1) by an interior-point method below the BFGS bound
+        (:func:`sdctrl.mu_lmi.lmi_bound`, bisection to ``1e-5``) and keep its scalings when
+        they certify less: the optimal D-G bound up to the bisection step.  Small problems
+        only (measured on a loaded 2-core machine: 0.1-0.9 s at 4-8 channels, 2 s at 14,
+        20 s at 24).
 
     Returns
     -------
@@ -269,7 +276,28 @@ def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol:
     lam = evaluate(fm, st, x, grad=False)[0]              # the certificate, exactly
     if lam > lam0:
         x, lam = x0, lam0
-    return float(np.sqrt(max(lam, 0.0))), x
+    bound = float(np.sqrt(max(lam, 0.0)))
+    if polish and bound > stop:
+        return _polish(fm, st, bound, x, stop)
+    return bound, x
+
+
+def _polish(fm: Factored, st: BlockStructure, bound: float, x, stop: float):
+    """The LMI optimum below ``bound`` (:func:`lmi_bound`), kept when it certifies less.
+
+    The LMI's bounded range of scalings is centred on the BFGS ones (``D0``).
+    """
+    D0, _ = st.dense_scalings(x)
+    try:
+        res = lmi_bound(fm.dense(), st, hi=bound, lo=stop, D0=D0)
+        if res.D is None or not res.bound < bound:
+            return bound, x
+        xl = st.params(res.D, res.G)
+    except np.linalg.LinAlgError:            # a scaling not numerically positive definite
+        return bound, x
+    lam = evaluate(fm, st, xl, grad=False)[0]             # certified through x, as returned
+    b = float(np.sqrt(max(lam, 0.0)))
+    return (b, xl) if b < bound else (bound, x)
 
 
 def block_norms(fm: Factored, st: BlockStructure) -> np.ndarray:
@@ -355,30 +383,8 @@ def osborne(B, sweeps: int = 40) -> np.ndarray:
     return np.exp(logd)
 
 
-def certify_dg(M, D, G) -> float:
-    """Exact mu upper bound certified by scalings ``(D, G)``: the smallest ``beta`` with
-    ``M^H D M + j(G M - M^H G) - beta^2 D <= 0`` (generalised eigenvalue).
-
-    Parameters
-    ----------
-    M : ndarray (r, r)
-        Complex matrix.
-    D : ndarray (r, r)
-        Hermitian positive definite scaling (block structure of Delta).
-    G : ndarray (r, r)
-        Hermitian scaling, zero on complex blocks.
-
-    Returns
-    -------
-    float
-    """
-    X = M.conj().T @ D @ M + 1j * (G @ M - M.conj().T @ G)
-    X = 0.5 * (X + X.conj().T)
-    lam = sla.eigh(X, 0.5 * (D + D.conj().T), eigvals_only=True)
-    return float(np.sqrt(max(lam[-1], 0.0)))
-
-
-def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0):
+def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0,
+             polish: bool = False):
     """Mixed real mu upper bound of ``M`` for repeated real scalar blocks (D-G scalings).
 
     Each real ``delta`` is regularised as ``delta + eps*delta_c`` (a small complex part), so the
@@ -397,6 +403,8 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
         Relative tolerance on the bound (the search stops when it improves by less).
     lower : float
         Value of interest: the search stops as soon as the bound is certified at or below it.
+    polish : bool
+        Polish the bound by the LMI (small problems only; see :func:`dg_upper`).
 
     Returns
     -------
@@ -413,6 +421,7 @@ def mu_upper(M, reps, eps: float = 0.01, rtol: float = 0.005, lower: float = 0.0
     st = BlockStructure.real_repeated(reps, eps)
     if not np.any(Maug):
         return 0.0, (Maug, np.eye(st.N), np.zeros((st.N, st.N)))
-    bound, x = dg_upper(Factored(Maug), st, stop=lower, rtol=min(rtol, 1e-3) * 0.1)
+    bound, x = dg_upper(Factored(Maug), st, stop=lower, rtol=min(rtol, 1e-3) * 0.1,
+                        polish=polish)
     D, G = st.dense_scalings(x)
     return bound, (Maug, D, G)

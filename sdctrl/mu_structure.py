@@ -319,3 +319,41 @@ class BlockStructure:
                 if Gh is not None:
                     G[np.ix_(idx, idx)] = F[k] @ Gh[k] @ Fh[k]
         return D, G
+
+    def params(self, D, G) -> np.ndarray:
+        """Parameter vector of dense scalings (the inverse of :meth:`dense_scalings`).
+
+        Parameters
+        ----------
+        D : ndarray (N, N)
+            Hermitian positive definite, block diagonal with the structure (``d I`` on full
+            blocks).
+        G : ndarray (N, N)
+            Hermitian, block diagonal, zero off the real blocks (ignored there).
+
+        Returns
+        -------
+        ndarray (nv,)
+        """
+        x = np.zeros(self.nv)
+        for g in self.groups:
+            r, nf, ng = g["r"], g["nf"], g["ng"]
+            p = np.zeros((len(g["blocks"]), nf + ng))
+            for k, idx in enumerate(g["idx"]):
+                blk = np.ix_(idx, idx)
+                Dk = 0.5 * (D[blk] + np.conj(D[blk].T))
+                if g["kind"] == "full":
+                    p[k, 0] = 0.5 * np.log(np.real(np.trace(Dk)) / r)
+                    continue
+                F = np.linalg.cholesky(Dk)
+                Fi = np.linalg.inv(F)
+                p[k, :r] = np.log(np.real(np.diag(F)))
+                il, m = g["il"], g["m"]
+                p[k, r:r + m], p[k, r + m:nf] = np.real(F[il]), np.imag(F[il])
+                if ng:
+                    Gh = Fi @ G[blk] @ np.conj(Fi.T)
+                    p[k, nf:nf + r] = np.real(np.diag(Gh))
+                    p[k, nf + r:nf + r + m] = np.real(Gh[il])
+                    p[k, nf + r + m:] = np.imag(Gh[il])
+            x[g["off"]:g["off"] + p.size] = p.ravel()
+        return x

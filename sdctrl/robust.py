@@ -21,7 +21,14 @@ import numpy as np
 from sdctrl._progress import progress_bar
 from sdctrl._statespace import ss_frf
 from sdctrl._threads import single_thread
-from sdctrl._validate import as_statespace, check_freq
+from sdctrl._validate import (
+    as_statespace,
+    check_executor,
+    check_freq,
+    check_int,
+    check_scalar,
+    check_seed,
+)
 from sdctrl.mu import BlockStructure, Factored, certify_dg, dg_upper, mu_upper
 from sdctrl.mu_lower import destabilise, perturbed_A
 from sdctrl.mu_sweep import FactoredSystem, cheap_bounds, cover
@@ -173,15 +180,15 @@ def _start_frequencies(A, freq, w_cross):
 
 
 def _check_options(eps, rtol, n_directions, freq):
-    eps, rtol = float(eps), float(rtol)
-    if not (np.isfinite(eps) and eps > 0):
-        raise ValueError(f"eps must be a positive regularisation (e.g. 0.005), got {eps}")
-    if not (np.isfinite(rtol) and 0 < rtol < 1):
-        raise ValueError(f"rtol must be in (0, 1), got {rtol}")
-    if isinstance(n_directions, bool) or not isinstance(n_directions, int | np.integer) \
-            or n_directions < 0:
-        raise ValueError(f"n_directions must be an integer >= 0, got {n_directions!r}")
-    return eps, rtol, None if freq is None else check_freq(freq, "freq")
+    eps = check_scalar(eps, "eps", positive=True)
+    if not eps <= 1:
+        raise ValueError(f"eps must be a small positive regularisation in (0, 1] (e.g. 0.005), "
+                         f"got {eps:g}")
+    rtol = check_scalar(rtol, "rtol", positive=True)
+    if not rtol < 1:
+        raise ValueError(f"rtol must be in (0, 1), got {rtol:g}")
+    n_directions = check_int(n_directions, "n_directions", minimum=0, maximum=10**5)
+    return eps, rtol, n_directions, None if freq is None else check_freq(freq, "freq")
 
 
 def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions: int = 20,
@@ -201,11 +208,11 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
         cover all frequencies whatever this grid.
     eps : float
         Complex regularisation of the real parameters (``delta + eps delta_c``, conservatism
-        about ``1 + eps``); must be positive.
+        about ``1 + eps``); in ``(0, 1]``.
     n_directions : int
-        Random sign patterns tried by the lower-bound search (besides one per pole).
-    seed : int
-        Random seed of the lower-bound search.
+        Random sign patterns tried by the lower-bound search (besides one per pole; 0 allowed).
+    seed : int or Generator
+        Random seed of the lower-bound search (None: not reproducible).
     rtol : float
         Relative slack between the largest upper bound computed and the certified level.
     progress : bool, optional
@@ -218,7 +225,8 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
     RobustResult
     """
     t0 = time.perf_counter()
-    eps, rtol, freq = _check_options(eps, rtol, n_directions, freq)
+    eps, rtol, n_directions, freq = _check_options(eps, rtol, n_directions, freq)
+    seed, executor = check_seed(seed), check_executor(executor)
     fs, reps = _closed_loop(um, controller)
     nb = len(reps)
     stable = bool(np.all(np.linalg.eigvals(fs.A).real < 0))
@@ -244,7 +252,8 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
         res = cover(fsa, st, w0, max(b_pk, mu_lo) * (1 + rtol), rtol, executor, bar,
                     warm=(w_pk, x_pk))
         if res.level * low.alpha > 1 + 5 * rtol:      # refine the lower bound at the peak
-            better = destabilise(fs, reps, n_random=4 * n_directions, seed=seed + 1,
+            better = destabilise(fs, reps, n_random=4 * n_directions,
+                                 seed=seed + 1 if isinstance(seed, int) else seed,
                                  near=res.peak_w)
             if better.alpha < low.alpha:
                 low = better
@@ -299,7 +308,7 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     freq : array_like, optional
         Frequencies (Hz); default a log grid around the model's modes.
     n_samples : int
-        Random samples (besides vertices).
+        Random samples (besides vertices; 0 allowed).
     seed : int
         Random seed.
     executor : concurrent.futures.Executor, optional
@@ -318,8 +327,8 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     for name, val, n in (("output", output, m.ns), ("input", input, m.na)):
         if isinstance(val, bool) or not isinstance(val, int | np.integer) or not 0 <= val < n:
             raise ValueError(f"{name} must be an index in [0, {n}), got {val!r}")
-    if int(n_samples) < 0:
-        raise ValueError(f"n_samples must be >= 0, got {n_samples}")
+    n_samples = check_int(n_samples, "n_samples", minimum=0, maximum=10**6)
+    seed, executor = check_seed(seed), check_executor(executor)
     if freq is None:
         f0 = np.asarray(m.frequency, float)
         f0 = f0[f0 > 0] if np.any(f0 > 0) else np.array([1.0])
@@ -331,7 +340,7 @@ def worst_case_gain(um, controller, output: int = 0, input: int = 0, freq=None,
     rng = np.random.default_rng(seed)
     verts = (np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
              if 2 ** nb <= 256 else rng.choice([-1.0, 1.0], size=(256, nb)))
-    ds = np.vstack([np.zeros((1, nb)), verts, rng.uniform(-1, 1, (int(n_samples), nb))])
+    ds = np.vstack([np.zeros((1, nb)), verts, rng.uniform(-1, 1, (n_samples, nb))])
     run = executor.map if executor is not None else map
     args = [(fs, chan_block, perf, int(output), int(input), w, d) for d in ds]
     gains = []

@@ -21,7 +21,7 @@ import numpy as np
 
 from sdctrl._statespace import ss_frf
 from sdctrl._util import MAX_ROWS, markdown_table, one_line
-from sdctrl._validate import check_freq, readonly, signal_names
+from sdctrl._validate import as_array, check_freq, check_int, check_seed, readonly, signal_names
 from sdctrl.multitest import MultiTestResult, multi_test_statistics
 
 __all__ = [
@@ -36,15 +36,21 @@ __all__ = [
 ]
 
 
+#: largest normalised parameter accepted: a million times the bounds is a scaling mistake
+DELTA_MAX = 1e6
+#: most random samples/vertices one call draws
+MAX_DRAWS = 10**6
+
+
 def _bound(arr, shape, name, symmetric):
     if arr is None:
         return np.zeros(shape)
-    a = np.array(arr, dtype=float)
+    a = as_array(arr, name, dtype=float)
     if a.shape != shape:
         raise ValueError(f"{name} must have shape {shape} (the shape of the perturbed parameter), "
                          f"got {a.shape}")
-    if not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise ValueError(f"{name} must hold finite non-negative bounds")
+    if np.any(a < 0):
+        raise ValueError(f"{name} must hold non-negative bounds")
     if symmetric:
         a = np.maximum(a, a.T)  # one parameter per symmetric pair
     return a
@@ -232,10 +238,13 @@ class UncertainModel:
         -------
         tuple of ndarray
         """
-        d = np.asarray(deltas, dtype=float).ravel()
+        d = as_array(deltas, "deltas", dtype=float)
         if d.shape != (len(self.params),):
-            raise ValueError(f"deltas must have {len(self.params)} entries (one per block), "
-                             f"got shape {np.shape(deltas)}")
+            raise ValueError(f"deltas must be a 1-D array of {len(self.params)} entries (one "
+                             f"per block), got shape {d.shape}")
+        if np.any(np.abs(d) > DELTA_MAX):
+            raise ValueError(f"deltas are normalised (|delta| <= 1 spans the bounds): got "
+                             f"max |delta| = {np.abs(d).max():g} > {DELTA_MAX:g}")
         m = self.model
         mats = {"Omega": np.array(m.Omega, float), "Gamma": np.array(m.Gamma, float),
                 "b": np.array(m.phib, float), "c": np.array(m.cphi, float)}
@@ -299,8 +308,9 @@ class UncertainModel:
         -------
         ndarray
         """
-        rng = np.random.default_rng(seed)
-        return rng.uniform(-1.0, 1.0, size=(int(n), len(self.params)))
+        nb = len(self.params)
+        n = check_int(n, "n", minimum=1, maximum=MAX_DRAWS)
+        return np.random.default_rng(check_seed(seed)).uniform(-1.0, 1.0, size=(n, nb))
 
     def sample(self, n: int, seed=None) -> list:
         """``n`` random perturbed StateSpace models (uniform in the normalised box).
@@ -326,11 +336,12 @@ class UncertainModel:
         freq : array_like
             Frequencies (Hz).
         n_samples : int
-            Number of random interior samples.
+            Number of random interior samples (besides the vertices; 0 allowed).
         seed : int, optional
             Random seed.
         max_vertices : int
-            All ``2**nblocks`` vertices are used when not more than this, else that many random ones.
+            All ``2**nblocks`` vertices are used when not more than this, else that many random
+            ones (0: none).
 
         Returns
         -------
@@ -339,16 +350,18 @@ class UncertainModel:
             (degrees, unwrapped around the nominal phase), each ``(nf, ns, na)``.
         """
         f = check_freq(freq, "freq")
+        n_samples = check_int(n_samples, "n_samples", minimum=0, maximum=MAX_DRAWS)
+        max_vertices = check_int(max_vertices, "max_vertices", minimum=0, maximum=MAX_DRAWS)
         w = 2 * np.pi * np.asarray(f, float)
         nb = len(self.params)
-        rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(check_seed(seed))
         if nb == 0:
             verts = np.zeros((1, 0))
         elif 2 ** nb <= max_vertices:
             verts = np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
         else:
             verts = rng.choice([-1.0, 1.0], size=(max_vertices, nb))
-        ds = np.vstack([verts, rng.uniform(-1, 1, size=(int(n_samples), nb))])
+        ds = np.vstack([verts, rng.uniform(-1, 1, size=(n_samples, nb))])
         nom = self.nominal
         H0 = ss_frf(nom.A, nom.B, nom.C, nom.D, w)
         mag_min = np.abs(H0).copy()

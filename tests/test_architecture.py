@@ -47,7 +47,7 @@ ORDER = [
     "sdctrl.updating.measured", "sdctrl.updating.problem", "sdctrl.updating.fit",
     "sdctrl.updating.sensitivity", "sdctrl.updating.sweep", "sdctrl.updating",
     "sdctrl.predictions", "sdctrl.hybridmodel", "sdctrl.testbeds", "sdctrl.closedloop",
-    "sdctrl.mu_structure", "sdctrl.mu", "sdctrl.mu_sweep", "sdctrl.mu_lower", "sdctrl.robust",
+    "sdctrl.mu_structure", "sdctrl.mu_lmi", "sdctrl.mu", "sdctrl.mu_sweep", "sdctrl.mu_lower", "sdctrl.robust",
     "sdctrl.placement", "sdctrl.testing",
     "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
 ]

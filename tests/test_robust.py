@@ -250,3 +250,25 @@ def test_inputs_are_validated():
         worst_case_gain(um, K, output=3)
     with pytest.raises(ValueError, match="continuous-time"):
         worst_case_gain(um, control.ss([], [], [], [[0.1, 0.0, 0.0]], dt=True))
+
+
+def test_options_are_validated_and_zero_counts_allowed():
+    um = uncertain(two_mode(), dGamma=np.diag([0.02, 0.01]))
+    K = control.ss([], [], [], [[0.5, 0.0, 0.0]])
+    for kw, err in (({"eps": "0.01"}, TypeError), ({"eps": 10.0}, ValueError),
+                    ({"rtol": [0.01]}, TypeError), ({"n_directions": 2.5}, TypeError),
+                    ({"seed": -1}, ValueError), ({"executor": "threads"}, TypeError)):
+        with pytest.raises(err, match=next(iter(kw))):
+            robust_stability(um, K, **kw)
+    for kw, err in (({"n_samples": -1}, ValueError), ({"seed": 0.5}, TypeError),
+                    ({"executor": [1]}, TypeError)):
+        with pytest.raises(err, match=next(iter(kw))):
+            worst_case_gain(um, K, **kw)
+    # no random direction: the pole-started search alone, still a destabilising bracket
+    res = robust_stability(um, K, n_directions=0)
+    assert 0 < res.margin <= res.margin_lower * (1 + 1e-9)
+    cl = control.feedback(um.perturbed(res.delta), K)
+    assert np.max(np.linalg.eigvals(cl.A).real) >= -1e-9
+    # vertices only (4 of them + nominal): the peak is the max over those closures
+    wc = worst_case_gain(um, K, freq=np.linspace(0.1, 0.3, 40), n_samples=0)
+    assert set(np.abs(wc["delta"])) <= {0.0, 1.0}

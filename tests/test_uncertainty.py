@@ -101,6 +101,51 @@ def test_bad_inputs():
         um.perturbed([0.1, 0.2])
 
 
+def test_boundary_validation_names_the_argument_and_keeps_the_input():
+    m = two_mode()
+    dG = np.array([[0.01, 0.02], [0.0, 0.005]])
+    um = uncertain(m, dGamma=dG)
+    assert np.array_equal(dG, [[0.01, 0.02], [0.0, 0.005]])        # caller's array untouched
+    with pytest.raises(TypeError, match="dOmega"):
+        uncertain(m, dOmega=np.ones((2, 2)) * 1j)
+    with pytest.raises(TypeError, match="db"):
+        uncertain(m, db=[["a"], ["b"]])
+    assert len(um.params) == 3                                       # 2 diagonal, 1 pair
+    with pytest.raises(ValueError, match="deltas"):
+        um.perturbed([[0.1, 0.2, 0.3]])
+    with pytest.raises(ValueError, match="deltas"):                 # a scaling mistake
+        um.perturbed([1e7, 0.0, 0.0])
+    with pytest.raises(TypeError, match="deltas"):
+        um.perturbed_model([0.1, 0.2 + 1j, 0.0])
+    # a large but sane delta (a margin of 1000 x the bounds) still builds the model
+    _, Ga, _, _ = um.perturbed_matrices([1e3, 0.0, 0.0])
+    assert Ga[0, 0] == pytest.approx(m.Gamma[0, 0] + 1e3 * 0.01)
+    with pytest.raises(ValueError, match="n"):
+        um.sample_deltas(0)
+    with pytest.raises(TypeError, match="seed"):
+        um.sample(2, seed=0.5)
+    with pytest.raises(ValueError, match="seed"):
+        um.sample_deltas(2, seed=-1)
+    with pytest.raises(TypeError, match="n_samples"):
+        um.frf_envelope([0.1, 0.2], n_samples=2.5)
+
+
+def test_frf_envelope_of_the_vertices_alone():
+    """``n_samples=0`` and ``max_vertices=0`` are allowed: the envelope then spans only the
+    vertices, or only the nominal model."""
+    um = uncertain(two_mode(), dGamma=[[0, 0.015], [0.015, 0]])
+    f = np.linspace(0.1, 0.25, 30)
+    w = 2 * np.pi * f
+    nominal = um.frf_envelope(f, n_samples=0, max_vertices=0)
+    assert np.array_equal(nominal["mag_min"], nominal["mag_max"])
+    assert np.allclose(nominal["mag_max"], np.abs(nominal["nominal"]))
+    env = um.frf_envelope(f, n_samples=0)
+    H = [np.abs(ss_frf(s.A, s.B, s.C, s.D, w)) for s in (um.perturbed([-1.0]),
+                                                           um.perturbed([1.0]))]
+    hi = np.maximum(np.maximum(*H), np.abs(env["nominal"]))
+    assert np.allclose(env["mag_max"], hi, rtol=1e-12)
+
+
 def test_physical_bounds():
     G = np.array([[0.04, 0.0], [0.0, 0.022]])
     g = psd_gamma_bound(G)
