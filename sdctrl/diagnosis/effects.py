@@ -223,11 +223,74 @@ def fit_free_mode(placed, H) -> dict | None:
     U, S, Vt = np.linalg.svd(X1)
     c, b = U[:, 0] * np.sqrt(S[0]), Vt[0] * np.sqrt(S[0])
     J = cost(H + phi[:, None, None] * np.outer(c, b)[None], placed.Hd)
+    wr, zr, cr, br = _refine_mode(placed, H, wm, zm, c, b, (lo, hi))
+    phr = 1.0 / (placed.s**2 + 2 * zr * wr * placed.s + wr**2)
+    Jr = cost(H + phr[:, None, None] * np.outer(cr, br)[None], placed.Hd)
+    if Jr < J:
+        wm, zm, c, b, J = wr, zr, cr, br, Jr
     ns, na = X1.shape
     fr = float(wm / (2 * np.pi))
     return proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm)}, J,
                     2 + ns + na - 1, w.size, "mode",
                     {"omega": float(wm), "zeta": float(zm), "c": c, "b": b})
+
+
+def _mode_jacobian(s, w, z, c, b, phi, Hm):
+    """``d Log(H + phi c b^T) / d(log w, log zeta, c, b)``, shape (entries, 2 + ns + na)."""
+    ns, na = c.size, b.size
+    dphi_u = -phi**2 * (2 * z * s + 2 * w) * w
+    dphi_v = -phi**2 * (2 * w * s) * z
+    cb = np.outer(c, b)
+    cols = [(dphi_u[:, None, None] * cb / Hm)[..., None],
+            (dphi_v[:, None, None] * cb / Hm)[..., None],
+            np.einsum("f,a,st->fsat", phi, b, np.eye(ns)) / Hm[..., None],
+            np.einsum("f,s,at->fsat", phi, c, np.eye(na)) / Hm[..., None]]
+    return np.concatenate(cols, axis=-1).reshape(-1, 2 + ns + na)
+
+
+def _refine_mode(placed, H, w, z, c, b, wlim, steps=25, window=True):
+    """Levenberg-Marquardt on the complex logLS of an extra mode, on the lines around it
+    (the linearised fit of :func:`_mode_residue` is poor where the mode is entirely missing,
+    the residual there being large)."""
+    om = placed.omega
+    win = np.abs(om - w) <= max(0.1 * w, 30 * z * w)
+    if np.count_nonzero(win) < 5 or not window:
+        win = np.ones(om.size, bool)
+    s, H_, Hd = placed.s[win], H[win], placed.Hd[win]
+    ns = c.size
+
+    def model(x):
+        wx, zx = np.exp(x[0]), np.exp(x[1])
+        phi = 1.0 / (s**2 + 2 * zx * wx * s + wx**2)
+        Hm = H_ + phi[:, None, None] * np.outer(x[2:2 + ns], x[2 + ns:])[None]
+        return wx, zx, phi, Hm
+
+    x = np.r_[np.log(w), np.log(z), c, b]
+    lb = np.r_[np.log(wlim[0]), np.log(1e-5)]
+    ub = np.r_[np.log(wlim[1]), np.log(0.5)]
+    wx, zx, phi, Hm = model(x)
+    J, mu = cost(Hm, Hd), 1e-3
+    for _ in range(steps):
+        r = complex_residual(Hm, Hd).reshape(-1)
+        Jm = _mode_jacobian(s, wx, zx, x[2:2 + ns], x[2 + ns:], phi, Hm)
+        A = (Jm.conj().T @ Jm).real
+        g = (Jm.conj().T @ r).real
+        d = np.diag(A) + 1e-12 * max(np.trace(A), 1e-300)
+        for _try in range(6):
+            xt = x - np.linalg.solve(A + mu * np.diag(d), g)
+            xt[:2] = np.clip(xt[:2], lb, ub)
+            t = model(xt)
+            Jt = cost(t[3], Hd)
+            if Jt < J:
+                break
+            mu *= 10.0
+        else:
+            break
+        done = Jt > (1 - 1e-6) * J
+        x, (wx, zx, phi, Hm), J, mu = xt, t, Jt, max(mu / 10.0, 1e-9)
+        if done:
+            break
+    return float(np.exp(x[0])), float(np.exp(x[1])), x[2:2 + ns].copy(), x[2 + ns:].copy()
 
 
 def _coupled_pairs(Omega, Gamma, fmin, fmax):

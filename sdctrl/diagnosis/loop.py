@@ -30,7 +30,7 @@ from sdctrl.diagnosis.scan import physical_proposals, setup
 __all__ = ["diagnose"]
 
 #: an effect must explain at least this share of the error above the noise level ...
-MIN_GAIN = 0.2
+MIN_GAIN = 0.05
 #: ... and at least this share of the initial error above the noise level
 MIN_SHARE = 0.01
 #: costs below this are round-off: the model reproduces the data

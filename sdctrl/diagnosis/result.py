@@ -120,7 +120,17 @@ class Effect:
             raise TypeError("parameters must be a dict")
         sets = object.__setattr__
         sets(self, "location", _location(self.location))
-        sets(self, "parameters", dict(self.parameters))
+        params = {}
+        for k, v in self.parameters.items():
+            if not isinstance(k, str):
+                raise TypeError(f"parameters: names must be strings, got {k!r}")
+            if isinstance(v, np.ndarray) and v.dtype.kind in "iuf":
+                v = np.array(v, float)
+                v.setflags(write=False)
+            else:
+                v = _number(v, f"parameters[{k!r}]")
+            params[k] = v
+        sets(self, "parameters", params)
         for name in ("error_before", "error_after"):
             sets(self, name, _number(getattr(self, name), name))
 
