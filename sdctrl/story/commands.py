@@ -128,7 +128,7 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
     nm = log.run("normal_modes", "normal modes", normal_modes_of, ident, test, needs=[ident])
     upd = log.run("update", "FE model update", update_fe, test, nm, progress=progress,
                   needs=[test, nm])
-    hy = log.run("hybrid", "hybrid model", build_hybrid, test, nm, upd, needs=[upd])
+    hy = log.run("hybrid", "hybrid model", build_hybrid, test, nm, upd, ident, needs=[upd])
     pl = log.run("placement", "D-strut placement", place_strut, test, hy, upd,
                  progress=progress, needs=[hy])
     rb = log.run("robustness", "robust stability", robust_strut, hy, pl, upd,

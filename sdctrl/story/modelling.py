@@ -251,7 +251,7 @@ class Hybrid:
                  "hybrid_shapes")
 
 
-def build_hybrid(test, normal_modes, update) -> Hybrid:
+def build_hybrid(test, normal_modes, update, ident=None) -> Hybrid:
     """Step 5: hybrid model of the identified modes on the updated FE model.
 
     Parameters
@@ -259,21 +259,28 @@ def build_hybrid(test, normal_modes, update) -> Hybrid:
     test : SimulatedTest
         The test and the truth.
     normal_modes : NormalModes
-        Identified normal modes.
+        Identified normal modes (of the band).
     update : Update
         The updated FE model.
+    ident : Identification, optional
+        The identified complex modes: when given, the hybrid is built from the normal
+        modes of every identified pole (the pole fitted just above the band carries the
+        modes beyond it; the hybrid pairs it with an FE mode or absorbs it), as
+        :func:`sdctrl.hybrid` recommends.
 
     Returns
     -------
     Hybrid
     """
     from sdctrl.hybridmodel import hybrid
+    from sdctrl.identification import normal_modes as to_normal_modes
     from sdctrl.testbeds import SENSORS, SHAKERS
 
     frf = test.frf
-    h = hybrid(update.result.fe, normal_modes.nm, list(SENSORS))
+    nm = normal_modes.nm if ident is None else to_normal_modes(ident.cm)
+    h = hybrid(update.result.fe, nm, list(SENSORS))
     truth = _fe_model(test.fe)
-    costs = {"identified normal modes": _logls(normal_modes.nm, frf), "hybrid": _logls(h, frf),
+    costs = {"identified normal modes": _logls(nm, frf), "hybrid": _logls(h, frf),
              "wrong FE": _logls(_fe_model(update.wrong), frf),
              "updated FE": float(update.result.cost_after),
              "true structure (noise floor)": _logls(truth, frf)}
