@@ -45,7 +45,9 @@ def test_notebook_runs(notebook, tmp_path, monkeypatch):
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     # a story with narrative and figures: each figure shown once (no repeated image)
     images = [o["data"]["image/png"] for o in outputs if "image/png" in o.get("data", {})]
-    assert images and len(set(images)) == len(images)
+    assert len(set(images)) == len(images)
+    if notebook.name[0].isdigit():            # the numbered stories each show figures
+        assert images
     assert nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# ")
     # progress bars in a notebook without ipywidgets: plain text, no "IProgress not found"
     text = "\n".join(o.get("text", "") for o in outputs if o.get("output_type") == "stream")

@@ -276,7 +276,9 @@ def test_non_positive_damping_warning_says_what_to_do():
     cmp = cm.replace(residues=R + 1e-2 * noise * np.abs(R).max(axis=(1, 2))[:, None, None])
     with pytest.warns(RuntimeWarning) as rec:
         nm = sd.normal_modes(cmp)
-    msg = next(str(w.message) for w in rec if "positive semi-definite" in str(w.message))
+    w = next(w for w in rec if "positive semi-definite" in str(w.message))
+    msg = str(w.message)
+    assert w.filename == __file__                    # points at the caller's line
     ec = nm.info["damping_eigenvalues"]
     rel = ec.min() / np.abs(ec).max()
     assert f"{rel:.1e} of it" in msg                 # the size, relative to the spectrum

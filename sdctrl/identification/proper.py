@@ -418,7 +418,7 @@ def transformation(psi: np.ndarray, lam: np.ndarray):
     ec = sla.eigh(CT, MT, eigvals_only=True)       # damping relative to mass: rad/s
     pd["damping"] = bool(ec.min() >= -1e-12 * max(np.abs(ec).max(), 1e-300))
     if not pd["damping"]:
-        warnings.warn(_damping_advice(ec), RuntimeWarning, stacklevel=3)
+        warnings.warn(_damping_advice(ec), RuntimeWarning, stacklevel=4)
     info = {"mass_eigenvalues": np.linalg.eigvalsh(MT), "stiffness_eigenvalues":
             np.linalg.eigvalsh(KT), "damping_eigenvalues": ec, "positive_definite": pd}
     return MT, CT, KT, info
