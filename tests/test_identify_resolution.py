@@ -1,9 +1,11 @@
-"""Resolution of ``identify`` with few lines: lightly damped modes narrower than the line
-spacing, the damping uncertainty (3.56) that tells them from noise poles, and the out-of-band
-trials made before insignificant poles are removed."""
+"""Resolution of ``identify``: lightly damped modes narrower than the line spacing (few
+lines), the damping uncertainty (3.56) that tells them from noise poles, the out-of-band
+trials made before insignificant poles are removed, and the partner of a close pair in
+noisy single-reference data (LSCF order)."""
 
 import numpy as np
 import pytest
+from test_identify import BAND, F_TRUE, IN_BAND, Z_TRUE, ten_mode
 
 import sdctrl as sd
 from sdctrl.identification.complex_modes import frf_array
@@ -83,3 +85,29 @@ def test_damping_std_predicts_the_spread_over_noise_draws():
     noise_pole = np.array([-0.002 * w + 1j * w])
     std = _log_damping_std(frf, np.concatenate([lam, noise_pole]))
     assert std[0] < 0.1 and std[1] > RESOLVED_STD
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3, 4])
+def test_close_pair_partner_single_reference_3pct_noise(seed):
+    """10 sensors x 1 actuator of the 10-mode set, 3% noise: the partner of the close pair
+    (33.165 Hz, 1.2% damping, beside 33.0 Hz at 0.3%) is 10-14 times its noise threshold
+    and its residue 12 times its standard deviation (3.60), yet was lost in seeds 0, 1, 3
+    and 4 of 0-7: the indicator functions show 5 peaks for 8 modes, the LSCF stopped at
+    order 20 where the partner is not stable, and the residual scan cannot see it while
+    the mode above the band is missing (whose trial fails while the partner is missing).
+    Measured now (seeds 0-7): found in all, frequency error <= 8.3e-4, damping within 11%;
+    the local 44 Hz mode is below the noise at 3% (0.4-0.96 times its threshold with the
+    true poles) and is not asserted."""
+    frf, _lam, _R = ten_mode(noise=0.03, seed=seed)
+    frf1 = sd.FRF(frf.freq, frf.H[:, :, :1], sensors=frf.sensors,
+                  actuators=frf.actuators[:1], collocated=[(0, 0)])
+    cm = sd.identify(frf1, band=BAND, progress=False)
+    f, z = cm.frequency[cm.in_band], cm.damping[cm.in_band]
+    strong = IN_BAND & (np.arange(10) != 6)
+    i = [int(np.argmin(np.abs(f - ft))) for ft in F_TRUE[strong]]
+    assert len(set(i)) == len(i)                         # the pair is two poles
+    np.testing.assert_allclose(f[i], F_TRUE[strong], rtol=2e-3)
+    j = i[list(F_TRUE[strong]).index(33.165)]
+    assert abs(z[j] / Z_TRUE[4] - 1) < 0.15
+    spurious = [x for x in f if np.min(np.abs(F_TRUE[IN_BAND] - x)) / x > 2e-3]
+    assert not spurious
