@@ -399,7 +399,9 @@ def strut_plant(model, b, name: str = "strut"):
     control.StateSpace
         Inputs ``model`` 's inputs and ``name_u``, outputs its outputs and ``name``,
         ``name_dot`` (displacement; ``.`` in ``name`` becomes ``_`` as in every signal name),
-        ready for :func:`feedback` with :func:`strut_controller`.
+        ready for :func:`feedback` with :func:`strut_controller`.  A hybrid model that
+        carries its FE model (``static_ready``, built by :func:`sdctrl.hybrid`) gets the
+        static correction of the strut first, as in its ``with_feedback``.
     """
     from sdctrl.modal import NormalModeModel
 
@@ -413,6 +415,10 @@ def strut_plant(model, b, name: str = "strut"):
     if bb.shape != (N, 1):
         raise ValueError(f"b must have shape (N={N}, 1), got {bb.shape}")
     name = check_label(name, "name")
+    if getattr(model, "static_ready", False):
+        # a hybrid model carrying its FE: the strut's static correction, consistent with
+        # its shapes (HybridModel.with_static), as in HybridModel.with_feedback
+        model = model.with_static(bb)
     taken = {signal_name(lab) for lab in (*model.sensors, *model.actuators)}
     if signal_name(name) in taken:
         raise ValueError(f"name {name!r} is already a sensor or actuator label of the model; "

@@ -8,15 +8,13 @@ hybrid model (5.1)
 ``I p'' + Gamma_c p' + Omega_c p = phi_c^T b_c u``, ``y = c_c phi_c p``
 
 keeps the measured ``Omega``/``Gamma`` of the measured modes, uses the measured modes
-*expanded* onto all FE DOFs (4.7), ``phi_Ex = phi_FE A`` with
-``A = (c phi_FE)^+ (c phi)_ID``, and appends analytic FE modes below and above the test
-band (an identified model covers only its band, and predictions for untested inputs
-depend on what lies outside it), plus optional static correction modes.  Because its
-shapes live on FE DOFs, the hybrid predicts untested sensors/actuators, modifications
-``dM, dC, dK`` given on FE DOFs (5.2) and D-strut loops (5.3)-(5.4): the
-:class:`~sdctrl.predictions.HybridModel` class and its predictions are in
-:mod:`sdctrl.predictions`, the expansion and pairing in :mod:`sdctrl.updating.expansion`;
-this module builds the model (5.1.1).
+*expanded* onto all FE DOFs (4.7), and appends analytic FE modes below and above the test
+band and static correction modes.  Because its shapes live on FE DOFs, the hybrid predicts
+untested sensors/actuators, modifications ``dM, dC, dK`` given on FE DOFs (5.2) and D-strut
+loops (5.3)-(5.4): the :class:`~sdctrl.predictions.HybridModel` class and its predictions
+(with the static correction of modifications) are in :mod:`sdctrl.predictions`, the
+expansion and pairing in :mod:`sdctrl.updating.expansion`, the shapes and residual terms
+in :mod:`sdctrl.hybridbasis`; this module builds the model (5.1.1).
 """
 
 from __future__ import annotations
@@ -25,54 +23,68 @@ import warnings
 
 import numpy as np
 
+from sdctrl._validate import check_scalar
+from sdctrl.fe.static import consistent_static_modes
 from sdctrl.fe.validation import check_fe_model, shapes_on_dofs
+from sdctrl.hybridbasis import build_basis, fe_modes_upto, select_residual, stack_parts
 from sdctrl.modal import NormalModeModel
 from sdctrl.predictions import HybridModel, pairing_report
-from sdctrl.updating.expansion import MAC_POOR, expand, pair_modes
+from sdctrl.updating.expansion import MAC_POOR, pair_modes
 
 __all__ = ["hybrid", "pairing_report"]
 
-
-# ----------------------------------------------------------------------------------------
-# helpers
-# ----------------------------------------------------------------------------------------
-def _fe_modes_upto(fe, fmax: float, nmin: int):
-    """FE modes (Hz, shapes) up to ``fmax`` Hz, at least ``nmin`` of them."""
-    n = min(fe.N, max(nmin, 20))
-    while True:
-        f, phi = fe.modes(n)
-        if f[-1] >= fmax or n >= fe.N:
-            break
-        n = min(fe.N, 2 * n)
-    keep = max(nmin, int(np.searchsorted(f, fmax, side="right")))
-    return f[:keep], phi[:, :keep]
+_EXPANSIONS = ("regularised", "paired")
+_RESIDUALS = ("identified", "fe")
 
 
 # ----------------------------------------------------------------------------------------
 # the hybrid model
 # ----------------------------------------------------------------------------------------
 def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
-           static_b=None, mac_min: float = MAC_POOR) -> HybridModel:
+           static_b=None, mac_min: float = MAC_POOR, expansion: str = "regularised",
+           residual: str = "identified") -> HybridModel:
     """Hybrid experimental/analytical normal-mode model, eq. (5.1).
 
-    Built from an identified normal-mode model ``nm`` (the measured modes of the test
-    band) and an FE model ``fe``:
+    Built from an identified normal-mode model ``nm`` (as returned by
+    :func:`sdctrl.normal_modes` with its default: every identified pole, in-band or not)
+    and an FE model ``fe``:
 
     - measured modes: the identified ``Omega`` (frequencies) and ``Gamma`` (full damping
-      matrix, non-proportional terms kept), shapes expanded onto all FE DOFs by (4.7),
-      ``phi_Ex = phi_FE A``, ``A = (c phi_FE)^+ (c phi)_ID``, where ``phi_FE`` are the FE
-      modes paired with the test modes (maximal MAC, reported in ``info``);
-    - every other FE mode up to ``fmax`` (below and above the test band, and FE modes of
-      the band that no test mode paired with): analytic frequency and shape, damping ratio
-      the mean of the measured ones, no damping coupling (section 5.1.1);
-    - optionally static correction modes (2.21) of the FE model for ``static_b``,
-      critically damped (``2 omega``, 2.20).
+      matrix, non-proportional terms kept), shapes expanded onto all FE DOFs (4.7).  By
+      default (``expansion="regularised"``) the expansion basis holds every FE mode down
+      to a quarter of the lowest paired eigenvalue and up to ``fmax`` plus the static
+      shapes of the test inputs, and the fit is regularised toward the paired FE mode
+      (:func:`~sdctrl.updating.expansion.expand_regularised`): the expanded shapes match
+      the measured observabilities where the paired FE modes alone cannot.
+      ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
+      paired FE modes;
+    - out-of-band identified poles (``nm.info["in_band"]`` False) that pair with an FE
+      mode (MAC >= ``mac_min``) are kept as measured modes; the others (poles that absorb
+      what lies beyond the band) are absorbed into the residual terms below
+      (``info["absorbed"]``);
+    - every other FE mode up to ``fmax`` (5.1.1): the low ones (suspension, rigid-body) as
+      FE shapes, the others made mass-orthogonal to the expanded shapes; damping ratio the
+      mean measured one, no damping coupling;
+    - static correction modes (2.21) of the test inputs, made consistent with those
+      shapes (:func:`sdctrl.fe.static.consistent_static_modes`), critically damped (2.20);
+    - residual terms (``residual="identified"``, default): the test's residual flexibility
+      ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
+      over the band -- and the modal masses of the low modes are corrected to the
+      identified residual mass ``F``; the appended FE frequencies are scaled by ``kappa``,
+      the median measured/FE frequency ratio of the paired modes.  Each of these steps is
+      kept only if it brings the model closer to ``nm`` at the tested I/O
+      (:func:`sdctrl.hybridbasis.select_residual`; ``info["residual"]``).  The kept
+      ``E`` is carried by the static correction modes' observabilities (2.22), so that
+      the realisation is exact (``info["residual_flexibility"]``).
+      ``residual="fe"``: the thesis's hybrid, FE frequencies and no residual term;
+    - optionally static correction modes for ``static_b``.
 
-    Because the expansion basis and the appended modes are distinct FE modes, the appended
-    shapes are mass- and stiffness-orthogonal (for the FE matrices) to the expanded ones.
-    The outputs are ``y = c_c phi_c p`` with ``c_c = sensor_c`` (5.1): the expanded
-    observabilities, which smooth the measured ones when there are more sensors than
-    modes.
+    The model carries its FE model and test I/O (``fe``, ``sensor_c``, ``actuator_b``),
+    so that :meth:`~sdctrl.predictions.HybridModel.with_feedback`,
+    :meth:`~sdctrl.predictions.HybridModel.with_io` and
+    :meth:`~sdctrl.predictions.HybridModel.modify` add the static correction of each
+    modification by default (the key to large stiffness changes, thesis Table 5.2).
+    The outputs are ``y = c_c phi_c p`` with ``c_c = sensor_c`` (5.1).
 
     Parameters
     ----------
@@ -80,33 +92,42 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         The analytical model (need not be accurate: its shapes span the expansion).
     nm : NormalModeModel
         Identified normal modes (diagonal ``Omega``, rad/s^2; ``Gamma`` rad/s; ``cphi`` at
-        the test sensors).  Its static term ``E`` is not used: the appended FE modes stand
-        for the modes outside the band.
+        the test sensors; ``E`` and ``F`` residual terms; ``info["band"]`` and
+        ``info["in_band"]`` as :func:`sdctrl.normal_modes` sets them).
     sensor_c : array_like, shape (ns, N), or sequence of ns DOF labels
         The test sensors placed on the FE DOFs (rows match ``nm.sensors``).
     actuator_b : array_like, shape (N, na), or sequence of na DOF labels, optional
         FE input shapes of the model's inputs; then ``phib = phi_c^T actuator_b``.  By
         default the identified ``nm.phib`` is used for the measured modes and, when
-        ``nm.actuators`` are FE DOF labels, point forces for the appended modes.
+        ``nm.actuators`` are FE DOF labels, point forces for the other modes.
     fmax : float, optional
-        Highest frequency (Hz) of the appended FE modes; default five times the highest
+        Highest frequency (Hz) of the FE modes used; default five times the highest
         measured frequency.
     static_b : array_like, shape (N, k), optional
-        Input shapes (e.g. a strut, :meth:`FEModel.strut`) for which FE static correction
-        modes are appended.  The thesis (5.1.2) warns that FE static corrections do not
-        match expanded shapes well; use them with care.
+        Input shapes (e.g. a strut, :meth:`FEModel.strut`) for which static correction
+        modes, consistent with the hybrid's shapes, are appended (``kind`` ``"static"``).
     mac_min : float
-        Pairs with a MAC below this value are reported with a warning.
+        Pairs with a MAC below this value are reported with a warning (in-band modes) or
+        absorbed (out-of-band poles).
+    expansion : {"regularised", "paired"}
+        Expansion basis and fit, see above.
+    residual : {"identified", "fe"}
+        Residual terms from the test (selected against ``nm``) or the thesis's FE modes.
 
     Returns
     -------
     HybridModel
         Modes sorted by frequency; ``shapes`` (also ``expanded``) on ``fe.dofs``;
-        ``info`` holds ``"kind"`` (``"measured"``, ``"fe"``, ``"static"`` per mode),
+        ``E`` None unless part of the kept residual flexibility could not be carried by
+        the correction modes;
+        ``info`` holds ``"kind"`` (``"measured"``, ``"fe"``, ``"residual"`` for the static
+        correction of the test inputs, ``"static"`` for ``static_b``, per mode),
         ``"measured"`` (bool mask), ``"pairing"`` (``test_mode``, ``fe_mode``, ``mac``,
-        ``test_hz``, ``fe_hz`` arrays), ``"mac"`` (full FE x test MAC matrix),
-        ``"poor_pairs"`` (test modes with MAC < ``mac_min``), ``"expansion"`` (``A``),
-        ``"mean_damping"``.
+        ``test_hz``, ``fe_hz`` of the kept measured modes), ``"mac"`` (FE x test MAC),
+        ``"poor_pairs"`` (rows of the pairing with MAC < ``mac_min``), ``"absorbed"``
+        (indices of absorbed ``nm`` modes), ``"expansion"`` (``A``), ``"mean_damping"``,
+        ``"kappa"``, ``"residual"`` (the chosen variant and the scores), ``"n_static"``,
+        ``"residual_flexibility"`` (the kept ``E`` at the test I/O, or None).
 
     Raises
     ------
@@ -114,13 +135,16 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         ``fe`` is not an FEModel or ``nm`` not a NormalModeModel.
     ValueError
         Inconsistent shapes, unknown DOF labels, non-diagonal ``nm.Omega``, a
-        non-positive ``fmax``.
+        non-positive ``fmax``, an FE model with fewer modes than ``nm``, unknown
+        ``expansion`` or ``residual``.
 
     Warns
     -----
     UserWarning
-        Poor FE/test pairing (MAC below ``mac_min``), fewer sensors than measured modes, or
-        inputs that cannot be placed on the FE model.
+        Poor FE/test pairing of an in-band mode (MAC below ``mac_min``), fewer sensors than
+        measured modes, inputs that cannot be placed on the FE model, or an ``nm`` built
+        from a subset of the identified poles (``normal_modes(cm, modes=...)``: use the
+        default).
 
     Examples
     --------
@@ -135,46 +159,146 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     check_fe_model(fe, "fe")
     if not isinstance(nm, NormalModeModel):
         raise TypeError(f"nm must be a NormalModeModel, got {type(nm).__name__}")
+    for name, val, allowed in (("expansion", expansion, _EXPANSIONS),
+                               ("residual", residual, _RESIDUALS)):
+        if val not in allowed:
+            raise ValueError(f"{name} must be one of {allowed}, got {val!r}")
     c, b = _test_io(fe, nm, sensor_c, actuator_b)
     w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
     f_id = np.sqrt(w2_id) / (2 * np.pi)
-    # FE modes, pairing, expansion basis (4.7)
-    f_fe, phi_fe = _fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
+    f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
     fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi)
-    if c.shape[0] < nm.n:
-        warnings.warn(f"hybrid: {c.shape[0]} sensors for {nm.n} measured modes; the expansion "
-                      "(4.7) needs more sensors than modes to be determined", stacklevel=2)
-    shapes_ex, A = expand(phi_fe[:, fe_idx], c, nm.cphi)
-    poor = np.flatnonzero(mac_pairs < mac_min)
+    kept = ~_absorbed(nm, mac_pairs, mac_min)
+    if c.shape[0] < kept.sum():
+        warnings.warn(f"hybrid: {c.shape[0]} sensors for {kept.sum()} measured modes; the "
+                      "expansion (4.7) needs more sensors than modes to be determined",
+                      stacklevel=2)
+    poor = np.flatnonzero(mac_pairs[kept] < mac_min)
+    km = np.flatnonzero(kept)
     if poor.size:
-        desc = ", ".join(f"test mode {j} ({f_id[j]:.2f} Hz) ~ FE mode {fe_idx[j]} "
-                         f"({f_fe[fe_idx[j]]:.2f} Hz), MAC {mac_pairs[j]:.2f}" for j in poor)
+        desc = ", ".join(f"test mode {km[j]} ({f_id[km[j]]:.2f} Hz) ~ FE mode "
+                         f"{fe_idx[km[j]]} ({f_fe[fe_idx[km[j]]]:.2f} Hz), MAC "
+                         f"{mac_pairs[km[j]]:.2f}" for j in poor)
         warnings.warn(f"hybrid: poor FE/test mode pairing (MAC < {mac_min:g}): {desc}",
                       stacklevel=2)
-    # measured, appended analytic FE and static correction modes (5.1)
-    zeta_mean = _mean_damping(nm, np.sqrt(w2_id))
-    app = np.setdiff1d(np.arange(f_fe.size), fe_idx)
-    w_app = 2 * np.pi * f_fe[app]
-    blocks = [(shapes_ex, w2_id, np.asarray(nm.Gamma), "measured"),
-              (phi_fe[:, app], w_app**2, np.diag(2 * zeta_mean * w_app), "fe")]
-    if static_b is not None:
-        blocks.append(_static_block(fe, static_b, phi_fe))
-    shapes, w2, Gamma, kinds = _stack_blocks(blocks)
-    measured = kinds == "measured"
-    phib, unexcited = _inputs(fe, nm, shapes, measured, b)
+    _warn_left_out(nm)
+    loads, unexcited = _loads(fe, nm, b)
     if unexcited:
         warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
                       "modes are not excited by the model's inputs; give actuator_b",
                       stacklevel=2)
-    pairing = {"test_mode": np.arange(nm.n), "fe_mode": fe_idx, "mac": mac_pairs,
-               "test_hz": f_id, "fe_hz": f_fe[fe_idx]}
-    info = {"source": "hybrid", "kind": kinds, "measured": measured, "pairing": pairing,
-            "mac": macs, "poor_pairs": poor, "expansion": A, "mean_damping": zeta_mean,
-            "fe_frequency_hz": f_fe, "n_static": int(np.sum(kinds == "static")),
-            "dropped_E": nm.E is not None and bool(np.any(nm.E))}
-    return HybridModel(np.diag(w2), 0.5 * (Gamma + Gamma.T), c @ shapes, phib,
-                       sensors=nm.sensors, actuators=nm.actuators, shapes=shapes, dofs=fe.dofs,
-                       info=info)
+    base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
+                       fe_idx[kept], expansion)
+    phib_meas = nm.phib[kept] if b is None else base.expanded.T @ b
+    zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
+    parts, report = select_residual(nm, kept, base, c, phib_meas, loads, zeta_mean, residual)
+    shapes, w2, Gamma, phib, kinds = stack_parts(parts, loads)
+    if static_b is not None:
+        shapes, w2, Gamma, phib, kinds = _append_static(fe, static_b, shapes, w2, Gamma,
+                                                        phib, kinds, loads)
+    order = np.argsort(w2, kind="stable")
+    shapes, w2, phib, kinds = shapes[:, order], w2[order], phib[order], kinds[order]
+    Gamma = Gamma[np.ix_(order, order)]
+    pairing = {"test_mode": km, "fe_mode": fe_idx[kept], "mac": mac_pairs[kept],
+               "test_hz": f_id[kept], "fe_hz": f_fe[fe_idx[kept]]}
+    info = {"source": "hybrid", "kind": kinds, "measured": kinds == "measured",
+            "pairing": pairing, "mac": macs, "poor_pairs": poor,
+            "absorbed": np.flatnonzero(~kept), "expansion": base.A,
+            "mean_damping": zeta_mean, "fe_frequency_hz": f_fe, "kappa": report["kappa"],
+            "residual": report, "n_static": int(np.sum(kinds == "static"))}
+    if "mass_correction" in parts:
+        info["mass_correction"] = parts["mass_correction"]
+    cphi, E = _realise_residual(c @ shapes, w2, phib, kinds, parts["E"])
+    info["residual_flexibility"] = parts["E"]
+    return HybridModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=nm.sensors,
+                       actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info, fe=fe,
+                       sensor_c=c, actuator_b=loads)
+
+
+def _realise_residual(cphi, w2, phib, kinds, E):
+    """The kept residual flexibility ``E`` carried by the static correction modes (2.22).
+
+    As the thesis incorporates the asymptotic term in the correction modes (2.22), the
+    observabilities of the static correction modes of the test inputs get ``D`` with
+    ``D diag(1/w^2) phib_r = E``: the model's static response at the tested I/O holds
+    ``E`` exactly, its realisation (:meth:`~NormalModeModel.to_statespace`) is exact for
+    every quantity, and ``E`` is dropped with them when the inputs change
+    (:meth:`HybridModel.with_io`).  What the modes cannot carry (rank) stays in ``E``.
+    """
+    if E is None:
+        return cphi, None
+    r = np.isin(kinds, ("residual", "static")) & (w2 > 0)
+    if not np.any(r):
+        return cphi, E
+    X = phib[r] / w2[r, None]
+    D = E @ np.linalg.pinv(X, rcond=1e-10)
+    left = E - D @ X
+    cphi = np.array(cphi)
+    cphi[:, r] += D
+    tiny = 1e-9 * max(np.abs(E).max(), 1e-300)
+    return cphi, (left if np.abs(left).max() > tiny else None)
+
+
+def _warn_left_out(nm) -> None:
+    """Poles of the identified model left out of ``nm`` (``normal_modes(cm, modes=...)``)."""
+    hz = np.atleast_1d(np.asarray(nm.info.get("poles_left_out_hz", []), float))
+    if hz.size:
+        warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
+                      f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
+                      "band edges is lost and only the FE model stands for them; build nm "
+                      "with sd.normal_modes(cm) (its default, every pole): hybrid keeps the "
+                      "out-of-band modes that pair with the FE and absorbs the others",
+                      stacklevel=3)
+
+
+def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:
+    """Out-of-band identified poles that pair poorly: absorbed into the residual terms."""
+    ib = nm.info.get("in_band")
+    if ib is None or np.shape(ib) != (nm.n,):
+        return np.zeros(nm.n, bool)
+    return ~np.asarray(ib, bool) & (mac_pairs < mac_min)
+
+
+def _loads(fe, nm, b):
+    """Physical test inputs: ``actuator_b``, point forces at ``nm.actuators`` labels, or
+    None, and whether the appended modes stay unexcited."""
+    if b is not None:
+        return b, False
+    if nm.na and set(nm.actuators) <= set(fe.dofs):
+        return fe.point(list(nm.actuators)), False
+    return None, bool(nm.na)
+
+
+def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads):
+    """Static correction modes for ``static_b`` consistent with ``shapes``.
+
+    They are diagonalised on the stiffness together with the static correction of the test
+    inputs (one Ritz block, so that the static response to ``static_b`` is exact for an
+    exact FE model); the modes that hold most of the ``static_b`` directions are labelled
+    ``"static"``.
+    """
+    Bs, _ = shapes_on_dofs(static_b, fe.N, fe.dofs, "static_b")
+    res = kinds == "residual"
+    V2, _ = consistent_static_modes(fe, Bs, shapes)
+    k2 = V2.shape[1]
+    if not k2:
+        return shapes, w2, Gamma, phib, kinds
+    J = np.hstack([shapes[:, res], V2])                        # mass-orthonormal block
+    Kj = J.T @ np.asarray(fe.K @ J)
+    wc2, U = np.linalg.eigh(0.5 * (Kj + Kj.T))
+    V = J @ U
+    share = np.sum(U[res.sum():] ** 2, axis=0)                 # weight of static_b parts
+    label = np.full(V.shape[1], "residual")
+    label[np.argsort(-share, kind="stable")[:k2]] = "static"
+    keep = ~res
+    n = keep.sum()
+    G = np.zeros((n + V.shape[1],) * 2)
+    G[:n, :n] = Gamma[np.ix_(keep, keep)]
+    G[n:, n:] = np.diag(2 * np.sqrt(np.clip(wc2, 0, None)))
+    pb = np.vstack([phib[keep], V.T @ loads if loads is not None
+                    else np.zeros((V.shape[1], phib.shape[1]))])
+    return (np.hstack([shapes[:, keep], V]), np.concatenate([w2[keep], wc2]), G, pb,
+            np.concatenate([kinds[keep], label]))
 
 
 def _test_io(fe, nm, sensor_c, actuator_b):
@@ -184,13 +308,29 @@ def _test_io(fe, nm, sensor_c, actuator_b):
     if c.shape[0] != nm.ns:
         raise ValueError(f"sensor_c must have one row per sensor of nm (ns={nm.ns}), got "
                          f"{c.shape[0]}")
+    _check_io_scale(c, "sensor_c")
     b = None
     if actuator_b is not None:
         b, _ = shapes_on_dofs(actuator_b, N, fe.dofs, "actuator_b")
         if b.shape[1] != nm.na:
             raise ValueError(f"actuator_b must have one column per input of nm (na={nm.na}), "
                              f"got {b.shape[1]}")
+        _check_io_scale(b.T, "actuator_b")
     return c, b
+
+
+def _check_io_scale(x, name):
+    """Each sensor (row) or input (column) shape must be non-zero and of a usable scale:
+    the expansion fits ``c phi`` in a scale-free way, but zero, overflowing or subnormal
+    shapes make it meaningless."""
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    nrm = np.linalg.norm(x, axis=1)
+    big = np.abs(x).max() if x.size else 0.0
+    if np.any(nrm == 0) or big > 1e100 or np.any(nrm < 1e-100):
+        raise ValueError(f"{name}: every shape must be non-zero with entries of a usable "
+                         f"scale (norms between 1e-100 and 1e100), got norms in "
+                         f"[{nrm.min() if nrm.size else 0:.3g}, {big:.3g}]")
 
 
 def _measured(nm, fmax, mac_min):
@@ -202,60 +342,21 @@ def _measured(nm, fmax, mac_min):
     w2_id = np.clip(np.diag(Om), 0, None)
     if nm.n == 0:
         raise ValueError("nm must hold at least one measured mode")
+    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
     if fmax is None:
         fmax = 5.0 * float((np.sqrt(w2_id) / (2 * np.pi)).max())
-    fmax = float(fmax)
-    if not np.isfinite(fmax) or fmax <= 0:
-        raise ValueError(f"fmax must be a positive frequency in Hz, got {fmax}")
-    return w2_id, fmax, float(mac_min)
+    mac_min = check_scalar(mac_min, "mac_min", lo=0.0, hi=1.0)
+    return w2_id, fmax, mac_min
 
 
-def _mean_damping(nm, w_id) -> float:
-    """Mean measured damping ratio, given to the appended FE modes (5.1.1)."""
+def _mean_damping(nm, w_id, kept) -> float:
+    """Mean damping ratio of the kept in-band measured modes, given to the appended FE
+    modes (5.1.1)."""
+    use = kept.copy()
+    ib = nm.info.get("in_band")
+    if ib is not None and np.shape(ib) == (nm.n,) and np.any(use & np.asarray(ib, bool)):
+        use &= np.asarray(ib, bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         zeta = np.diag(nm.Gamma) / (2 * w_id)
-    zeta = zeta[w_id > 0]
+    zeta = zeta[use & (w_id > 0)]
     return float(np.mean(zeta)) if zeta.size else 0.0
-
-
-def _static_block(fe, static_b, phi_fe):
-    """FE static correction modes (2.21), (4.24) for ``static_b``, critically damped."""
-    from sdctrl.fe.static import principal_static_basis
-
-    Bs, _ = shapes_on_dofs(static_b, fe.N, fe.dofs, "static_b")
-    Ps = fe.static_correction(Bs, phi_fe)
-    Ps = Ps - phi_fe @ (phi_fe.T @ np.asarray(fe.M @ Ps))
-    V, wc2 = principal_static_basis(Ps, fe.M, fe.K)
-    wc2 = np.clip(wc2, 0, None)
-    return V, wc2, np.diag(2 * np.sqrt(wc2)), "static"
-
-
-def _stack_blocks(blocks):
-    """Shapes, ``omega^2``, block-diagonal ``Gamma`` and kinds, sorted by frequency."""
-    shapes = np.hstack([blk[0] for blk in blocks])
-    w2 = np.concatenate([blk[1] for blk in blocks])
-    kinds = [kind for blk in blocks for kind in [blk[3]] * blk[0].shape[1]]
-    n = shapes.shape[1]
-    Gamma = np.zeros((n, n))
-    i0 = 0
-    for blk in blocks:
-        k = blk[2].shape[0]
-        Gamma[i0:i0 + k, i0:i0 + k] = blk[2]
-        i0 += k
-    order = np.argsort(w2, kind="stable")
-    return (shapes[:, order], w2[order], Gamma[np.ix_(order, order)],
-            np.asarray(kinds)[order])
-
-
-def _inputs(fe, nm, shapes, measured, b):
-    """``phib``: ``shapes^T b``, or the identified ``nm.phib`` on the measured modes and
-    point forces at ``nm.actuators`` on the others, and whether those stay unexcited
-    (``nm.actuators`` are not FE DOF labels)."""
-    if b is not None:
-        return shapes.T @ b, False
-    phib = np.zeros((shapes.shape[1], nm.na))
-    phib[measured] = nm.phib
-    if nm.na and set(nm.actuators) <= set(fe.dofs):
-        phib[~measured] = shapes[:, ~measured].T @ fe.point(list(nm.actuators))
-        return phib, False
-    return phib, bool(nm.na and np.any(~measured))

@@ -41,28 +41,4 @@ OWNER = {
     "worst_case_gain": 13,
 }
 
-KNOWN: dict = {
-    # issue 17 (hybridmodel.py)
-    ("hybrid", "fmax", "array"):
-        "unnamed TypeError: only 0-dimensional arrays can be converted to Python scalars",
-    ("hybrid", "fmax", "complex"):
-        "unnamed TypeError: float() argument must be a string or a real number, not 'complex'",
-    ("hybrid", "fmax", "list"):
-        "unnamed TypeError: float() argument must be a string or a real number, not 'list'",
-    ("hybrid", "fmax", "string"): "accepted (returned a HybridModel)",
-    ("hybrid", "mac_min", "array"):
-        "unnamed TypeError: only 0-dimensional arrays can be converted to Python scalars",
-    ("hybrid", "mac_min", "complex"):
-        "unnamed TypeError: float() argument must be a string or a real number, not 'complex'",
-    ("hybrid", "mac_min", "inf"): "accepted (returned a HybridModel)",
-    ("hybrid", "mac_min", "list"):
-        "unnamed TypeError: float() argument must be a string or a real number, not 'list'",
-    ("hybrid", "mac_min", "nan"): "accepted (returned a HybridModel)",
-    ("hybrid", "mac_min", "negative"): "accepted (returned a HybridModel)",
-    ("hybrid", "mac_min", "none"):
-        "unnamed TypeError: float() argument must be a string or a real number, not 'NoneType'",
-    ("hybrid", "mac_min", "string"): "accepted (returned a HybridModel)",
-    ("hybrid", "sensor_c", "huge"): "unnamed ValueError: matrix contains invalid numeric entries",
-    ("hybrid", "sensor_c", "tiny"):
-        "unnamed ValueError: cphi must contain only finite values (no NaN or inf)",
-}
+KNOWN: dict = {}

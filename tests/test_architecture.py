@@ -46,8 +46,9 @@ ORDER = [
     "sdctrl.updating.reanalysis", "sdctrl.updating.basis", "sdctrl.updating.parametric",
     "sdctrl.updating.measured", "sdctrl.updating.problem", "sdctrl.updating.fit",
     "sdctrl.updating.sensitivity", "sdctrl.updating.sweep", "sdctrl.updating",
-    "sdctrl.predictions", "sdctrl.hybridmodel", "sdctrl.testbeds", "sdctrl.closedloop",
-    "sdctrl.mu_structure", "sdctrl.mu_lmi", "sdctrl.mu", "sdctrl.mu_sweep", "sdctrl.mu_lower", "sdctrl.robust",
+    "sdctrl.predictions", "sdctrl.hybridbasis", "sdctrl.hybridmodel", "sdctrl.testbeds",
+    "sdctrl.closedloop", "sdctrl.mu_structure", "sdctrl.mu_lmi", "sdctrl.mu", "sdctrl.mu_sweep",
+    "sdctrl.mu_lower", "sdctrl.robust",
     "sdctrl.placement", "sdctrl.testing",
     "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
 ]

@@ -6,7 +6,9 @@ free structure (rigid-body modes ``R``) ``K`` is singular and the inertia-relief
 flexibility is used instead: the exact solution of ``[[K, M R], [R^T M, 0]] [x; l] =
 [b; 0]``.  The static correction modes remove the retained modes' static part,
 ``phi_C = (K^-1 - sum_j phi_j phi_j^T / omega_j^2) b`` (2.21), (4.23); the principal static
-modes orthonormalise them by the mass-orthogonal SVD (4.24).
+modes orthonormalise them by the mass-orthogonal SVD (4.24).  :func:`consistent_static_modes`
+builds the same correction against an arbitrary set of shapes (expanded or hybrid shapes,
+which are not modes of the FE model): the static response made mass-orthogonal to them.
 """
 
 from __future__ import annotations
@@ -19,8 +21,8 @@ import scipy.sparse.linalg as spla
 from sdctrl._validate import as_array
 from sdctrl.fe.eigen import RIGID_RTOL, diagonal_scale
 
-__all__ = ["principal_static_basis", "principal_static_modes", "static_correction",
-           "static_solver"]
+__all__ = ["consistent_static_modes", "principal_static_basis", "principal_static_modes",
+           "static_correction", "static_solver"]
 
 
 def static_solver(K, M, R):
@@ -161,3 +163,55 @@ def principal_static_basis(phi_s, M, K):
     Kc = V.T @ np.asarray(K @ V)
     wc2, Rc = np.linalg.eigh(0.5 * (Kc + Kc.T))
     return V @ Rc, wc2
+
+
+def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float = 1e-6):
+    """Static correction modes of loads ``B`` consistent with given shapes (4.23)-(4.24).
+
+    The thesis notes (5.1.2) that the FE static correction mode (2.21), built against the
+    FE modes, does not fit a model whose shapes are expanded: the residual static
+    response must be taken against the shapes actually kept.  Here the FE static response
+    ``K^-1 B`` (4.23) is made mass-orthogonal to ``shapes``,
+    ``psi = K^-1 B - S (S^T M S)^-1 S^T M K^-1 B``, so that the correction adds only what
+    the shapes cannot represent, and orthonormalised by the mass-orthogonal SVD (4.24).
+    Each correction mode's stiffness is its projection ``psi^T K psi`` (a Ritz value, the
+    "projected stiffness" option of 2.22): it depends on the local FE stiffness around the
+    load only, not on the FE modes the shapes replaced.
+
+    Parameters
+    ----------
+    fe : FEModel
+        Gives ``K^-1`` (inertia relief for free structures), ``M`` and ``K``.
+    B : ndarray, shape (N, k)
+        Load shapes (a strut, inputs, the range of a modification).
+    shapes : ndarray, shape (N, n)
+        Shapes already in the model (need not be FE modes); linearly independent.
+    rtol : float
+        Directions whose residual is below ``rtol`` times the static response (in the
+        mass norm) are dropped: the shapes already hold them.
+
+    Returns
+    -------
+    V : ndarray, shape (N, k')
+        Mass-orthonormal correction modes, mass-orthogonal to ``shapes``, ``k' <= k``.
+    wc2 : ndarray, shape (k',)
+        Their ``omega^2`` (rad/s)^2 (``V^T K V`` diagonal), increasing.
+    """
+    M = fe.M
+    X = fe.static_response(B)
+    S = np.asarray(shapes, float)
+    if S.shape[1]:
+        MS = np.asarray(M @ S)
+        X_res = X - S @ np.linalg.solve(S.T @ MS, MS.T @ X)
+    else:
+        X_res = X
+    nx = np.sqrt(np.clip(np.einsum("ij,ij->j", X, np.asarray(M @ X)), 0, None))
+    nr = np.sqrt(np.clip(np.einsum("ij,ij->j", X_res, np.asarray(M @ X_res)), 0, None))
+    keep = nr > rtol * np.maximum(nx, 1e-300)
+    if not np.any(keep):
+        return np.zeros((fe.N, 0)), np.zeros(0)
+    V, wc2 = principal_static_basis(X_res[:, keep], M, fe.K)
+    # principal directions below rtol of the largest are dropped by (4.24); directions
+    # that are (numerically) in span(shapes) go too: they have no stiffness of their own
+    good = wc2 > 0
+    return V[:, good], wc2[good]

@@ -71,9 +71,13 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         complex modes (3.24); default ``cm.collocated``.  Several pairs are combined in
         the least-squares sense.
     modes : array_like of int or bool, optional
-        Modes of ``cm`` to transform (indices, or a boolean mask such as ``cm.in_band``);
-        default all.  Left-out modes are dropped from the result (their contribution is
-        lost, so leave out only poles that do not belong to the structure).
+        Modes of ``cm`` to transform (indices, or a boolean mask such as ``cm.in_band``).
+        The default -- the one to use -- is every pole, in-band or not: properness
+        enforced on the full set fits the data best (leaving the out-of-band poles out
+        loses their contribution near the band edges, several percent of the FRF), and
+        :func:`sdctrl.hybrid` keeps the out-of-band modes that pair with an FE mode and
+        absorbs the others into its residual terms.  Only if the transformation fails
+        with them are the out-of-band poles left out, with a warning.
     tol : float
         Relative tolerance of the Newton iteration on the Riccati residual (3.52).
     maxiter : int
@@ -91,7 +95,10 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         ``delta_radius`` (max modulus, must be well below 1, 3.54),
         ``riccati_residual``, ``newton_iterations``, ``mass_eigenvalues``,
         ``damping_eigenvalues``, ``stiffness_eigenvalues`` (of ``M_T, C_T, K_T``),
-        ``positive_definite`` (dict mass/damping/stiffness), ``pole_error`` (max relative
+        ``positive_definite`` (dict mass/damping/stiffness), ``in_band`` (per normal mode,
+        the flag of the pole it matches), ``band`` (of ``cm``), ``poles_used`` (indices
+        of the poles of ``cm`` transformed), ``poles_left_out`` and ``poles_left_out_hz``
+        (the others, which :func:`sdctrl.hybrid` warns about), ``pole_error`` (max relative
         deviation of the poles from ``cm.poles``), ``residue_error`` (relative residue
         misfit of the result), ``collocation_error``, ``c_T`` and ``sensor_eigenvalues``
         (the (3.47) spectrum, kept ones first), ``M_T``, ``C_T``, ``K_T``.
@@ -111,8 +118,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     -----
     RuntimeWarning
         Non-positive-definite damping (3.45), a large correction
-        (``|eig(delta)| > 0.5``), or poles of the result that depart from the identified
-        ones by more than ``1e-6``.
+        (``|eig(delta)| > 0.5``), poles of the result that depart from the identified
+        ones by more than ``1e-6``, or out-of-band poles left out because the
+        transformation fails with them.
 
     Examples
     --------
@@ -127,35 +135,52 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     True
     """
     from sdctrl.identification.complex_modes import ComplexModeModel
-    from sdctrl.modal import NormalModeModel
 
     if not isinstance(cm, ComplexModeModel):
         raise TypeError(f"cm must be a ComplexModeModel, got {type(cm).__name__}")
     ns, na = cm.ns, cm.na
-    lam, R = np.asarray(cm.poles), np.asarray(cm.residues)
+    pairs = check_collocated(cm.collocated if collocated is None else collocated, ns, na,
+                             "collocated", cm.sensors, cm.actuators)
+    if not pairs:
+        raise ValueError("collocated must hold at least one (sensor, actuator) pair: the "
+                         "complex modes are scaled by collocated residues (3.24)")
+    if isinstance(tol, bool) or not np.isfinite(tol) or tol <= 0:
+        raise ValueError(f"tol must be a positive number, got {tol!r}")
+    if isinstance(maxiter, bool) or not isinstance(maxiter, int | np.integer) or maxiter < 1:
+        raise ValueError(f"maxiter must be a positive integer, got {maxiter!r}")
+    in_band = np.asarray(cm.in_band, bool)
     if modes is not None:
-        sel = _mode_selection(modes, cm.n)
-        lam, R = lam[sel], R[sel]
+        return _transform(cm, _mode_selection(modes, cm.n), pairs, tol, maxiter)
+    sel = np.arange(cm.n)
+    if in_band.all() or in_band.sum() == 0:
+        return _transform(cm, sel, pairs, tol, maxiter)
+    try:
+        return _transform(cm, sel, pairs, tol, maxiter)
+    except ValueError as exc:
+        out = np.flatnonzero(~in_band)
+        warnings.warn(f"normal_modes: with the out-of-band pole(s) {out.tolist()} "
+                      f"({np.round(cm.frequency[out], 3).tolist()} Hz) the transformation "
+                      f"fails ({exc}); they are left out and their contribution is lost",
+                      RuntimeWarning, stacklevel=2)
+        return _transform(cm, np.flatnonzero(in_band), pairs, tol, maxiter)
+
+
+def _transform(cm, sel, pairs, tol, maxiter):
+    """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm``."""
+    from sdctrl.modal import NormalModeModel
+
+    ns = cm.ns
+    lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
     n = lam.size
     if n and not (np.abs(lam).max() <= POLE_RANGE and np.abs(lam).min() >= 1 / POLE_RANGE):
         raise ValueError(f"cm: poles of magnitude {np.abs(lam).min():.3g} to "
                          f"{np.abs(lam).max():.3g} rad/s; normal modes need |lambda| in "
                          f"[{1 / POLE_RANGE:g}, {POLE_RANGE:g}] (Omega = |lambda|^2 and the "
                          "transformation (3.44) in double precision): change the time unit")
-    pairs = check_collocated(cm.collocated if collocated is None else collocated, ns, na,
-                             "collocated", cm.sensors, cm.actuators)
-    if not pairs:
-        raise ValueError("collocated must hold at least one (sensor, actuator) pair: the "
-                         "complex modes are scaled by collocated residues (3.24)")
     if ns < n:
         raise ValueError(f"cm has fewer sensors ({ns}) than modes ({n}): the reduced "
                          "coordinates of (3.46)-(3.47) need ns >= n (the case with fewer "
                          "sensors than modes is not treated, thesis 3.3.3)")
-    if isinstance(tol, bool) or not np.isfinite(tol) or tol <= 0:
-        raise ValueError(f"tol must be a positive number, got {tol!r}")
-    if isinstance(maxiter, bool) or not isinstance(maxiter, int | np.integer) or maxiter < 1:
-        raise ValueError(f"maxiter must be a positive integer, got {maxiter!r}")
-
     with single_thread():                         # small matrices: BLAS threads only hurt
         cpsi, psib = scaled_modes(R, pairs)
         # --- reduced coordinates q_T (3.46)-(3.47) -------------------------------------
@@ -172,7 +197,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             if np.any(ev[:n] <= 0):
                 warnings.warn("normal_modes: the kept eigenvalues of (c psi) Lambda (c psi)^T "
                               "(3.47) are not all positive; the identified mass will not be "
-                              "positive definite", RuntimeWarning, stacklevel=2)
+                              "positive definite", RuntimeWarning, stacklevel=3)
         psi = cT.T @ cpsi                                              # (3.46) LS fit
         # --- properness (3.40) by the optimal correction (3.51)-(3.52) ------------------
         psi_p, rinfo = proper_modes(psi, tol=tol, maxiter=maxiter)
@@ -205,8 +230,27 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     if pole_err > 1e-6:
         warnings.warn(f"normal_modes: poles of the normal-mode model depart from the "
                       f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
-                      stacklevel=2)
+                      stacklevel=3)
+    info["poles_used"] = np.asarray(sel)
+    left = np.setdiff1d(np.arange(cm.n), sel)
+    info["poles_left_out"] = left
+    info["poles_left_out_hz"] = np.asarray(cm.frequency)[left]
+    info["in_band"] = _mode_in_band(w2, lam, np.asarray(cm.in_band, bool)[sel])
+    info["band"] = None if cm.band is None else tuple(float(v) for v in cm.band)
     return nm.replace(info={**info, "source": "normal_modes"})
+
+
+def _mode_in_band(w2, lam, in_band) -> np.ndarray:
+    """In-band flag of each normal mode: that of the identified pole it matches (by
+    frequency, one to one)."""
+    from scipy.optimize import linear_sum_assignment
+
+    w = np.sqrt(np.clip(w2, 0, None))
+    cost = np.abs(w[:, None] - np.abs(lam)[None, :])
+    r, c = linear_sum_assignment(cost)
+    out = np.ones(w.size, bool)
+    out[r] = in_band[c]
+    return out
 
 
 # --- steps ---------------------------------------------------------------------------------

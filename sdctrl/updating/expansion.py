@@ -5,7 +5,9 @@ The test measures the modal observabilities ``(c phi)_ID`` at its sensors only; 
 model gives shapes on all its DOFs.  Pairing matches each test mode with the FE mode of
 largest MAC (one FE mode per test mode, maximal total MAC); the geometric expansion (4.7)
 combines the paired FE shapes to fit the measured ones at the sensors,
-``phi_Ex = phi_FE (c phi_FE)^+ (c phi)_ID``.  Both serve the hybrid models of chapter V
+``phi_Ex = phi_FE (c phi_FE)^+ (c phi)_ID``; :func:`expand_regularised` does the same on a
+richer basis (more FE modes than test modes, static shapes) with the smoothing of section
+4.1.1 made explicit as a prior.  They serve the hybrid models of chapter V
 (:func:`sdctrl.hybrid`) and the correlation of FE and test modes in updating.
 """
 
@@ -16,7 +18,7 @@ import numpy as np
 from sdctrl._validate import as_array
 from sdctrl.updating.costs import mac
 
-__all__ = ["MAC_POOR", "expand", "pair_modes"]
+__all__ = ["MAC_POOR", "expand", "expand_regularised", "pair_modes"]
 
 #: MAC below which a FE/test pair is reported as poor (with a warning)
 MAC_POOR = 0.8
@@ -67,6 +69,93 @@ def expand(phi_fe, c, cphi_id, rcond: float = 1e-10):
         raise ValueError(f"cphi_id must have shape (ns={Cm.shape[0]}, n), got {Y.shape}")
     A = np.linalg.pinv(Cm @ P, rcond=rcond) @ Y
     return P @ A, A
+
+
+def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float = 1.0,
+                       noise: float = 1e-4):
+    """Expansion (4.7) on a rich basis, regularised by the perturbation prior of 4.1.1.
+
+    Each measured mode is sought as ``phi_Ex_j = T a_j`` on a basis ``T`` richer than the
+    paired FE modes (all FE modes of a band, static shapes), so that the measured
+    observabilities are matched where the paired modes alone cannot.  The smoothing that
+    section 4.1.1 asks of ``A`` is made explicit: a Gaussian prior centred on the paired
+    FE mode, ``a_j ~ N(a0_j, diag(sigma_j^2))`` with ``a0_j = alpha_j e_p`` (``alpha_j`` the
+    least-squares scale of the paired shape ``p``) and, from first-order perturbation
+    (a true mode recombines the FE modes with weights ``~ phi_k^T dK phi_p / (lambda_p -
+    lambda_k)``), ``sigma_jk = |alpha_j| min(1, spread lambda_p / |lambda_p - lambda_k|)``;
+    the data ``(c phi)_ID`` carry a noise of relative level ``noise``.  The posterior mean
+
+    ``a_j = a0_j + S G^T (G S G^T + s_j^2 I)^-1 ((c phi)_ID,j - G a0_j)``,
+    ``G = c T``, ``S = diag(sigma_j^2)``, ``s_j = noise ||(c phi)_ID,j|| / sqrt(ns)``,
+
+    is the least-squares fit (4.7) when the basis is the paired modes alone and the noise
+    vanishes, and otherwise the fit that departs least (in the prior's metric) from the
+    paired FE mode.  With a basis richer than the sensors it interpolates the measured
+    observabilities up to ``noise``; basis vectors far in frequency from the paired mode
+    are used little.
+
+    Parameters
+    ----------
+    basis : array_like, shape (N, m)
+        The basis ``T`` (FE modes, static shapes), e.g. mass-orthonormal.
+    lam : array_like, shape (m,)
+        Eigenvalues (rad/s)^2 of the basis vectors (``phi^T K phi`` of static shapes).
+    c : array_like, shape (ns, N)
+        Test sensors on the FE DOFs.
+    cphi_id : array_like, shape (ns, n)
+        Identified modal observabilities.
+    pair : array_like of int, shape (n,)
+        Column of ``basis`` paired with each measured mode (:func:`pair_modes`).
+    spread : float
+        Prior spread of the recombination (relative FE error level); only its ratio to
+        ``noise`` matters.
+    noise : float
+        Relative noise level of the identified observabilities.
+
+    Returns
+    -------
+    shapes : ndarray, shape (N, n)
+        Expanded shapes ``T A``.
+    A : ndarray, shape (m, n)
+        Combination coefficients.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> T = np.eye(4)[:, :3]
+    >>> c = np.eye(4)[:2]
+    >>> shapes, A = expand_regularised(T, [1.0, 4.0, 100.0], c, [[1.0], [0.2]], [0])
+    >>> np.round(A[:, 0], 3).tolist()               # mode 1 recombined, mode 3 unobserved
+    [1.0, 0.2, 0.0]
+    """
+    T = as_array(basis, "basis", ndim=2)
+    lam = as_array(lam, "lam", shape=(T.shape[1],))
+    Cm = as_array(c, "c", ndim=2)
+    Y = as_array(cphi_id, "cphi_id", ndim=2)
+    p = np.asarray(pair, dtype=int).reshape(-1)
+    if Cm.shape[1] != T.shape[0]:
+        raise ValueError(f"c must have shape (ns, N={T.shape[0]}), got {Cm.shape}")
+    if Y.shape[0] != Cm.shape[0] or p.size != Y.shape[1]:
+        raise ValueError(f"cphi_id must have shape (ns={Cm.shape[0]}, n) with n = len(pair)")
+    if np.any(p < 0) or np.any(p >= T.shape[1]):
+        raise ValueError("pair: index out of the basis")
+    G = Cm @ T
+    ns, m = G.shape
+    gp = G[:, p]
+    alpha = np.einsum("ij,ij->j", gp, Y) / np.maximum(np.einsum("ij,ij->j", gp, gp), 1e-300)
+    lp = lam[p][:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = spread * np.abs(lp) / np.abs(lp - lam[None, :])
+    sig = np.minimum(np.nan_to_num(ratio, nan=1.0, posinf=1.0), 1.0)      # (n, m)
+    sig[np.arange(p.size), p] = 1.0
+    S = (sig * np.abs(alpha)[:, None]) ** 2
+    A0 = np.zeros((m, p.size))
+    A0[p, np.arange(p.size)] = alpha
+    s2 = (noise * np.linalg.norm(Y, axis=0)) ** 2 / ns
+    K = np.einsum("ik,jk,nk->nij", G, G, S) + s2[:, None, None] * np.eye(ns)
+    R = (Y - G @ A0).T[:, :, None]                                         # (n, ns, 1)
+    A = A0 + (S * np.einsum("ik,nil->nk", G, np.linalg.solve(K, R))).T
+    return T @ A, A
 
 
 def pair_modes(cphi_fe, cphi_id):

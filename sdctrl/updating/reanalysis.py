@@ -20,7 +20,7 @@ import scipy.sparse as sp
 
 from sdctrl._validate import as_array
 
-__all__ = ["reanalysis", "reduced_change"]
+__all__ = ["modification_loads", "reanalysis", "reduced_change"]
 
 
 def reduced_change(X, shapes: np.ndarray, name: str) -> np.ndarray | None:
@@ -88,3 +88,53 @@ def reanalysis(model, dM=None, dC=None, dK=None):
     S = model.shapes
     return model.modified(dmu=reduced_change(dM, S, "dM"), dGamma=reduced_change(dC, S, "dC"),
                           dOmega=reduced_change(dK, S, "dK"))
+
+
+def modification_loads(dM=None, dC=None, dK=None, N: int | None = None,
+                       rtol: float = 1e-9) -> np.ndarray:
+    """Load shapes ``F_U`` spanning a modification, eq. (4.22).
+
+    ``dM q'' + dC q' + dK q`` acts on the structure as loads in the range of the three
+    matrices; an orthonormal basis of that range (eigenvectors of the non-zero blocks with
+    eigenvalues above ``rtol`` of the largest) gives the inputs of the static correction
+    (4.23).  Localised changes give few loads.
+
+    Parameters
+    ----------
+    dM, dC, dK : array_like or sparse, shape (N, N), optional
+        The modification (symmetric).
+    N : int, optional
+        Number of DOFs (checked against the matrices).
+    rtol : float
+        Relative threshold of the range.
+
+    Returns
+    -------
+    ndarray, shape (N, k)
+        Orthonormal load shapes (``k = 0`` for no modification).
+    """
+    cols = []
+    for name, X in (("dM", dM), ("dC", dC), ("dK", dK)):
+        if X is None:
+            continue
+        Xc = sp.csr_matrix(X) if sp.issparse(X) else sp.csr_matrix(as_array(X, name, ndim=2))
+        if N is None:
+            N = Xc.shape[0]
+        if Xc.shape != (N, N):
+            raise ValueError(f"{name} must have shape ({N}, {N}), got {Xc.shape}")
+        if Xc.nnz and not np.all(np.isfinite(Xc.data)):
+            raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+        idx = np.unique(np.concatenate([Xc.indices, np.repeat(np.arange(N),
+                                                              np.diff(Xc.indptr))]))
+        if not idx.size:
+            continue
+        sub = Xc[idx][:, idx].toarray()
+        ev, V = np.linalg.eigh(0.5 * (sub + sub.T))
+        big = np.abs(ev) > rtol * max(np.abs(ev).max(), 1e-300)
+        U = np.zeros((N, int(big.sum())))
+        U[idx] = V[:, big]
+        cols.append(U)
+    if not cols:
+        return np.zeros((N or 0, 0))
+    U, s, _ = np.linalg.svd(np.hstack(cols), full_matrices=False)
+    return U[:, s > 1e-8 * max(s.max(), 1e-300)] if s.size else U
