@@ -50,6 +50,10 @@ _EXPORTS = {
     "rms": "sdctrl.closedloop",
     "RobustResult": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",
+    # closing the loop with measured data
+    "diagnose": "sdctrl.diagnosis",
+    "Diagnosis": "sdctrl.diagnosis",
+    "Effect": "sdctrl.diagnosis",
     # saving models and results
     "save": "sdctrl.storage",
     "load": "sdctrl.storage",
@@ -61,7 +65,7 @@ __all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single so
 # submodules reachable as attributes (``sd.plot.bode``) without importing them up front
 _SUBMODULES = ("config", "frf", "io", "modal", "identification", "fe", "testbeds", "hybridmodel",
                "uncertainty", "robust", "closedloop", "testing", "plot", "report", "updating",
-               "storage")
+               "storage", "diagnosis")
 
 
 def __getattr__(name: str):

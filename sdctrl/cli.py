@@ -1,4 +1,5 @@
-"""The ``sdctrl`` command: ``sdctrl demo`` (the main job) and ``sdctrl info FILE``."""
+"""The ``sdctrl`` command: ``sdctrl demo`` (the main job), ``sdctrl info FILE`` and
+``sdctrl diagnose MODEL.npz DATA.uff [--fe FE.npz]``."""
 
 from __future__ import annotations
 
@@ -173,6 +174,46 @@ def _info(path: str) -> int:
     return 0
 
 
+def _diagnose(args) -> int:
+    """``sdctrl diagnose``: the effects a saved model lacks against measured FRFs."""
+    from sdctrl.diagnosis import diagnose
+    from sdctrl.fe import FEModel
+    from sdctrl.io import read_uff
+    from sdctrl.storage import load
+
+    model = load(args.model)
+    frf = load(args.data) if args.data.endswith(".npz") else read_uff(args.data)
+    fe = None if args.fe is None else load(args.fe)
+    if fe is not None and not isinstance(fe, FEModel):
+        raise TypeError(f"--fe: {args.fe} holds a {type(fe).__name__}, not an FEModel")
+    d = diagnose(model, frf, fe, max_effects=args.max_effects, progress=not args.quiet)
+    report = d.report()
+    if args.figure:
+        from sdctrl.plot import diagnosis as figure
+
+        figure(d, path=args.figure)
+        report = d.report(figure=os.path.basename(args.figure))
+    with open(args.report, "w", encoding="utf-8") as fh:
+        fh.write(report)
+    print(f"error (complex logLS, 3.12): {d.error_before:.4g} before, {d.error_after:.4g} after")
+    print(d.table() if d.effects else "no effect added: the model matches the data")
+    print(f"report written to {args.report}")
+    return 0
+
+
+def _diagnose_parser(sub) -> None:
+    p = sub.add_parser("diagnose", help="trace the residual between a saved model and measured "
+                       "FRFs to the effects the model lacks")
+    p.add_argument("model", help="model saved by sdctrl.save (.npz)")
+    p.add_argument("data", help="measured FRFs (.uff/.unv, or .npz saved by sdctrl.save)")
+    p.add_argument("--fe", help="FE model saved by sdctrl.save (.npz): physical candidates")
+    p.add_argument("--report", default="diagnosis.md", help="report (default diagnosis.md)")
+    p.add_argument("--figure", help="also draw the figure there (e.g. diagnosis.png)")
+    p.add_argument("--max-effects", type=int, default=4, help="at most this many effects")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(run=_diagnose)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``sdctrl`` console script.
 
@@ -195,8 +236,11 @@ def main(argv=None) -> int:
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p = sub.add_parser("info", help="summarise an FRF file (.uff/.unv or .npz) or a saved model")
     p.add_argument("path")
+    _diagnose_parser(sub)
     args = parser.parse_args(argv)
     try:
+        if hasattr(args, "run"):
+            return args.run(args)
         if args.command == "demo":
             demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
             return 0

@@ -11,14 +11,17 @@ only when a figure is drawn; a headless Linux session uses the ``Agg`` backend.
 - :func:`mac` -- MAC matrix heat map (4.9);
 - :func:`complex_residues` -- residues of a mode in the complex plane (Figure 3.5);
 - :func:`mode_shapes` -- mode shapes on the FE geometry (wireframe, 3-D);
-- :func:`cost_map` -- cost over two parameters with its optimum (Figure 4.6).
+- :func:`cost_map` -- cost over two parameters with its optimum (Figure 4.6);
+- :func:`diagnosis` -- a diagnosis (:func:`sdctrl.diagnose`): FRFs before/after at the worst
+  channel, residual per line and residual maps.
 """
 
 from sdctrl.plot.indicators import cmif, stabilisation, stabilisation_flags, stabilization
 from sdctrl.plot.maps import cost_map, mac
+from sdctrl.plot.residuals import diagnosis
 from sdctrl.plot.responses import bode, envelope, phase_display
 from sdctrl.plot.shapes import complex_residues, mode_shapes, phase_dispersion
 
-__all__ = ["bode", "cmif", "complex_residues", "cost_map", "envelope", "mac", "mode_shapes",
-           "phase_dispersion", "phase_display", "stabilisation", "stabilisation_flags",
+__all__ = ["bode", "cmif", "complex_residues", "cost_map", "diagnosis", "envelope", "mac",
+           "mode_shapes", "phase_dispersion", "phase_display", "stabilisation", "stabilisation_flags",
            "stabilization"]

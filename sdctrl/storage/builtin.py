@@ -69,3 +69,4 @@ register_attrs("UncertainModel", "sdctrl.uncertainty:UncertainModel",
                build=_build_uncertain, lenient=())
 register_attrs("RobustResult", "sdctrl.robust:RobustResult",
                kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)
+register_attrs("Effect", "sdctrl.diagnosis:Effect")

@@ -1,0 +1,268 @@
+"""Physical hypotheses a diagnosis scans on an FE model: where an effect could sit.
+
+- **pairs** of nodes: every element of ``fe.elements`` and every pair of nodes that no element
+  joins within ``reach`` (a dashpot or a spring need not sit on an existing bar).  The load
+  shape is the axial relative shape of a strut between them (:meth:`FEModel.strut`, 5.4):
+  ``added_damper`` (``dC = c b b^T``) and ``stiffness_change`` (``dK = dk b b^T``, along the
+  element's axis);
+- **nodes**: a lumped mass on the three translations, ``mass_change`` (``dM = dm I_3``);
+- **DOFs**: a resonator (mass on a spring along one axis) attached to one translation DOF,
+  the physical form of a ``missing_mode``.
+
+Each candidate has a reference size from the model's in-band modes (the dashpot that adds 1%
+damping to the most affected mode, the spring or mass that shifts its frequency by 1%), or
+the element's own axial stiffness ``EA/L``, so that one grid of relative sizes suits all.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Family", "Group", "candidate_groups", "families"]
+
+#: remaining fraction of an element's axial stiffness on the screen grid (stiffness changes)
+RHO_GRID = np.array([0.03, 0.07, 0.13, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.25, 1.7, 2.5])
+#: sizes relative to the reference (dampers, added springs, added masses): from a hundredth
+#: to a thousand half-power bandwidths of the most affected in-band mode
+REL_GRID = 10.0 ** np.linspace(-2.0, 3.0, RHO_GRID.size)
+#: masses removed from a node on the screen grid (fraction of its own lumped mass)
+MASS_REMOVED = np.array([0.9, 0.6, 0.3])
+#: resonator masses relative to the reference
+RES_GRID = 10.0 ** np.linspace(-3.0, 2.0, 11)
+_AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True, eq=False)
+class Group:
+    """Candidates sharing their load shapes (so their transfers are computed once).
+
+    Parameters
+    ----------
+    name : {"pairs", "nodes", "dofs"}
+        What the load shapes act on.
+    locations : tuple
+        Node pairs, node names or DOF labels.
+    beta : ndarray, shape (nc, nd, k)
+        Load shapes on the candidate DOFs.
+    """
+
+    name: str
+    locations: tuple
+    beta: np.ndarray
+
+    @property
+    def size(self) -> int:
+        """Number of candidates."""
+        return len(self.locations)
+
+
+@dataclass(frozen=True, eq=False)
+class Family:
+    """One kind of effect over a group of candidates.
+
+    Parameters
+    ----------
+    kind : str
+        ``"added_damper"``, ``"stiffness_change"``, ``"mass_change"`` or ``"resonator"``.
+    group : Group
+        Where it acts.
+    members : ndarray of int
+        Candidates of the group in the family.
+    grid : ndarray, shape (nc, m)
+        Screen sizes (SI units).
+    base : ndarray, shape (nc,)
+        The fit variable is ``log(base + size)``: the element's stiffness or the node's mass
+        (relative changes, negative sizes allowed), 0 for added dampers, springs, masses.
+    bounds : ndarray, shape (nc, 2)
+        Bounds of the size.
+    reference : ndarray, shape (nc,)
+        Element axial stiffness (N/m) for stiffness changes, NaN otherwise.
+    """
+
+    kind: str
+    group: Group
+    members: np.ndarray
+    grid: np.ndarray
+    base: np.ndarray
+    bounds: np.ndarray
+    reference: np.ndarray
+
+    @property
+    def size(self) -> int:
+        """Number of candidates."""
+        return self.members.size
+
+
+def _axial_stiffness(fe) -> dict:
+    """``EA/L`` of every bar and beam of the assembly, by unordered node-name pair."""
+    A = fe.assembly
+    if A is None:
+        return {}
+    out = {}
+    for (_kind, mat, sec, _ori), conn in A.groups:
+        EA = float(A.materials[mat]["E"]) * float(A.sections[sec]["A"])
+        L = np.linalg.norm(A.xyz[conn[:, 1]] - A.xyz[conn[:, 0]], axis=1)
+        for (a, b), length in zip(conn, L):
+            key = frozenset((A.names[a], A.names[b]))
+            out[key] = out.get(key, 0.0) + EA / length
+    return out
+
+
+def _node_dofs(fe):
+    """Candidate DOFs (translations of the nodes with coordinates) and their map."""
+    index = {lab: i for i, lab in enumerate(fe.dofs)}
+    idx, where = [], {}
+    for node in fe.nodes:
+        for ax in _AXES:
+            i = index.get(f"{node}.{ax}")
+            if i is not None:
+                where[(node, ax)] = len(idx)
+                idx.append(i)
+    return np.asarray(idx, int), where
+
+
+def _pairs(fe, reach):
+    """Elements first (their own order), then unconnected pairs within ``reach``."""
+    names = list(fe.nodes)
+    X = {n: np.asarray(fe.nodes[n]) for n in names}
+    elems, seen = [], set()
+    for a, b in fe.elements or ():
+        key = frozenset((a, b))
+        if a != b and key not in seen and np.linalg.norm(X[a] - X[b]) > 0:
+            seen.add(key)
+            elems.append((a, b))
+    if reach is None:
+        L = [np.linalg.norm(X[a] - X[b]) for a, b in elems]
+        reach = 1.5 * max(L) if L else np.inf
+    others = [(a, b) for a, b in itertools.combinations(names, 2)
+              if frozenset((a, b)) not in seen and 0 < np.linalg.norm(X[a] - X[b]) <= reach]
+    return elems, others
+
+
+def candidate_groups(fe, reach=None):
+    """Load shapes of the pairs, nodes and DOFs of an FE model.
+
+    Parameters
+    ----------
+    fe : FEModel
+        With node coordinates (``fe.nodes``); elements optional.
+    reach : float, optional
+        Largest distance (m) between two unconnected nodes of a pair; default 1.5 times the
+        longest element.
+
+    Returns
+    -------
+    dof_idx : ndarray of int, shape (nd,)
+        Candidate DOFs (node translations).
+    groups : dict of str to Group
+        ``"pairs"``, ``"nodes"``, ``"dofs"``.
+    n_elements : int
+        The first ``n_elements`` pairs are elements.
+    """
+    dof_idx, where = _node_dofs(fe)
+    nd = dof_idx.size
+    elems, others = _pairs(fe, reach)
+    pairs, betas, n_el = [], [], 0
+    for i, (a, b) in enumerate(elems + others):
+        v = fe.strut(a, b)[dof_idx, 0]
+        if np.any(v):
+            pairs.append((a, b))
+            betas.append(v)
+            n_el += i < len(elems)
+    nodes, nb = [], []
+    for node in fe.nodes:
+        B = np.zeros((nd, 3))
+        for j, ax in enumerate(_AXES):
+            if (node, ax) in where:
+                B[where[(node, ax)], j] = 1.0
+        if B.any():
+            nodes.append(node)
+            nb.append(B)
+    labels = [f"{node}.{ax}" for (node, ax) in where]
+    order = [where[(n, a)] for (n, a) in where]
+    E = np.zeros((len(labels), nd, 1))
+    E[np.arange(len(labels)), order, 0] = 1.0
+    groups = {
+        "pairs": Group("pairs", tuple(pairs), np.array(betas).reshape(len(pairs), nd, 1)),
+        "nodes": Group("nodes", tuple(nodes), np.array(nb).reshape(len(nodes), nd, 3)),
+        "dofs": Group("dofs", tuple(labels), E),
+    }
+    return dof_idx, groups, n_el
+
+
+def _fam(kind, group, keep, grid, base, lo, hi, reference=None):
+    """Family with its grid rows sorted by the fit variable ``log(base + size)``."""
+    order = np.argsort(np.log(base[:, None] + grid), axis=1, kind="stable")
+    grid = np.take_along_axis(grid, order, axis=1)
+    ref = np.full(keep.size, np.nan) if reference is None else reference
+    return Family(kind, group, keep, grid, base, np.c_[lo, hi], ref)
+
+
+def families(fe, groups, n_elements, modal_b, omega, gamma, node_mass):
+    """The four families with their size grids, from the in-band modal projections.
+
+    The reference size of a candidate is the one that changes the most affected in-band
+    mode by one half-power bandwidth ``gamma_j = Gamma_jj``: a dashpot ``c p_j^2 = gamma_j``,
+    a spring ``dk p_j^2 / (2 w_j) = gamma_j``, a mass ``dm q_j^2 w_j / 2 = gamma_j``
+    (``p_j = phi_j^T b``, ``q_j^2 = |phi_j|^2`` at the node), the scale at which the logLS
+    cost of lightly damped modes responds.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The FE model.
+    groups : dict of str to Group
+        From :func:`candidate_groups`.
+    n_elements : int
+        Number of element pairs (first in ``groups["pairs"]``).
+    modal_b : dict of str to ndarray, shape (nc, k, nm)
+        ``phi_j^T b`` of each candidate for the in-band modes.
+    omega : ndarray, shape (nm,)
+        In-band modal frequencies (rad/s).
+    gamma : ndarray, shape (nm,)
+        Their modal damping ``Gamma_jj`` (rad/s).
+    node_mass : ndarray, shape (n_nodes,)
+        Lumped translational mass of each node of the ``"nodes"`` group (kg).
+
+    Returns
+    -------
+    list of Family
+    """
+    w = np.maximum(omega, 1e-12)
+    g = np.maximum(gamma, 1e-4 * w)
+    out = []
+    pairs = groups["pairs"]
+    p2 = modal_b["pairs"][:, 0, :] ** 2                                  # (np, nm)
+    keep = np.flatnonzero(p2.max(axis=1) > 0)
+    c_ref = 1.0 / np.max(p2[keep] / g, axis=1)
+    zero = np.zeros(keep.size)
+    out.append(_fam("added_damper", pairs, keep, c_ref[:, None] * REL_GRID, zero,
+                    1e-3 * c_ref, 1e4 * c_ref))
+    k_ref = 1.0 / np.max(p2[keep] / (2 * w * g), axis=1)
+    ax = _axial_stiffness(fe)
+    kax = np.array([ax.get(frozenset(pairs.locations[i]), np.nan) if i < n_elements else np.nan
+                    for i in keep])
+    el = np.isfinite(kax)
+    grid = np.where(el[:, None], kax[:, None] * (RHO_GRID - 1.0), k_ref[:, None] * REL_GRID)
+    out.append(_fam("stiffness_change", pairs, keep, grid, np.where(el, kax, 0.0),
+                    np.where(el, -0.999 * kax, 1e-3 * k_ref),
+                    np.where(el, 20.0 * kax, 1e4 * k_ref), kax))
+    nodes = groups["nodes"]
+    q2 = np.sum(modal_b["nodes"] ** 2, axis=1)                           # (nn, nm)
+    keep = np.flatnonzero(q2.max(axis=1) > 0)
+    m_ref = 1.0 / np.max(q2[keep] * w / (2 * g), axis=1)
+    mn = np.asarray(node_mass, float)[keep]
+    neg = np.where(mn[:, None] > 0, -mn[:, None] * MASS_REMOVED, 1e-3 * m_ref[:, None])
+    out.append(_fam("mass_change", nodes, keep,
+                    np.hstack([m_ref[:, None] * REL_GRID[:-MASS_REMOVED.size], neg]), mn,
+                    np.where(mn > 0, -0.99 * mn, 1e-4 * m_ref), 1e4 * m_ref))
+    dofs = groups["dofs"]
+    r2 = modal_b["dofs"][:, 0, :] ** 2
+    keep = np.flatnonzero(r2.max(axis=1) > 0)
+    m_ref = 1.0 / np.max(r2[keep] * w / (2 * g), axis=1)
+    out.append(_fam("resonator", dofs, keep, m_ref[:, None] * RES_GRID, np.zeros(keep.size),
+                    1e-5 * m_ref, 1e3 * m_ref))
+    return out
