@@ -11,7 +11,9 @@ Cases (``--cases``, default all):
              receptance;
 ``10x1``     the 10-mode set of the tests, first actuator, 1% noise (band 20-60 Hz);
 ``10x3``     the same set, three actuators (EMA: one fit per actuator, times summed);
+``10x1n3``   the 10 x 1 set with 3% noise (the partner of the close pair);
 ``testbed``  ``sd.testbed_frf(n=1500, noise=0.01)``, all sensors x 6 shakers (EMA x 6);
+``testbed600`` the same with 600 lines (the 9.52 Hz mode is 0.45 line wide);
 ``scale``    1000 sensors x 3 references x 4000 lines, 20 modes, 0.5% noise (EMA x 3).
 
 For every case the three fits (previous sdctrl, this sdctrl, EMA) are alternated run by
@@ -108,25 +110,25 @@ def ema_case():
     return Case("EMA case 28x1x2000, noise-free", freq, H, None, lam)
 
 
-def ten_mode_case(n_act):
+def ten_mode_case(n_act, noise=0.01):
     from test_identify import BAND, IN_BAND, ten_mode
 
-    frf, lam, _ = ten_mode(noise=0.01, seed=0)
+    frf, lam, _ = ten_mode(noise=noise, seed=0)
     H = frf.H[:, :, :n_act]
-    return Case(f"10x{n_act} 1% noise", frf.freq, H, BAND, lam[IN_BAND],
+    return Case(f"10x{n_act} {100 * noise:g}% noise", frf.freq, H, BAND, lam[IN_BAND],
                 collocated=[(0, 0)])
 
 
-def testbed_case():
+def testbed_case(n=1500):
     from sdctrl import testbeds as tb
 
-    frf = sd.testbed_frf(n=1500, noise=0.01, seed=0)
+    frf = sd.testbed_frf(n=n, noise=0.01, seed=0)
     lam = np.asarray(tb._modal().poles)
     lam = lam[lam.imag > 0]
     f = np.abs(lam) / (2 * np.pi)
     lam = lam[(f > tb.TESTBED_BAND[0]) & (f < tb.TESTBED_BAND[1])]
     ns, na = frf.H.shape[1:]
-    return Case(f"testbed {ns}x{na}x1500 1% noise", frf.freq, frf.H, tb.TESTBED_BAND, lam,
+    return Case(f"testbed {ns}x{na}x{n} 1% noise", frf.freq, frf.H, tb.TESTBED_BAND, lam,
                 quantity="acceleration", ema_form="accelerance", ema_order=60)
 
 
@@ -232,7 +234,8 @@ def run_case(case, impls, runs, ema_runs):
 
 
 CASES = {"ema": ema_case, "10x1": lambda: ten_mode_case(1), "10x3": lambda: ten_mode_case(3),
-         "testbed": testbed_case, "scale": scale_case}
+         "10x1n3": lambda: ten_mode_case(1, 0.03), "testbed": testbed_case,
+         "testbed600": lambda: testbed_case(600), "scale": scale_case}
 
 
 def main():
@@ -258,7 +261,7 @@ def main():
             print(f"sdypy-EMA not available ({exc}): `pip install sdypy-ema`")
     for name in args.cases.split(","):
         case = CASES[name]()
-        ema_runs = args.runs if name not in ("scale", "testbed") else (args.ema_runs or 1)
+        ema_runs = args.runs if not name.startswith(("scale", "testbed")) else (args.ema_runs or 1)
         run_case(case, impls, args.runs, ema_runs)
         print(f"  load average: {os.getloadavg()}")
 

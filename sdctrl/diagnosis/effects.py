@@ -235,20 +235,38 @@ def fit_free_mode(placed, H) -> dict | None:
                     {"omega": float(wm), "zeta": float(zm), "c": c, "b": b})
 
 
-def _mode_jacobian(s, w, z, c, b, phi, Hm):
-    """``d Log(H + phi c b^T) / d(log w, log zeta, c, b)``, shape (entries, 2 + ns + na)."""
+def _mode_normal(s, w, z, c, b, phi, Hm, r):
+    """Gauss-Newton normal equations ``(Re J^H J, Re J^H r)`` of ``r = Log(H + phi c b^T) -
+    Log H_d`` in ``(log w, log zeta, c, b)``, built from its blocks (the ``c`` and ``b``
+    columns of ``J`` are sparse: ``P b_a`` on sensor ``s``, ``P c_s`` on actuator ``a``, with
+    ``P = phi / H``), never forming ``J``."""
     ns, na = c.size, b.size
-    dphi_u = -phi**2 * (2 * z * s + 2 * w) * w
-    dphi_v = -phi**2 * (2 * w * s) * z
+    Q = 1.0 / Hm
+    P = phi[:, None, None] * Q
     cb = np.outer(c, b)
-    cols = [(dphi_u[:, None, None] * cb / Hm)[..., None],
-            (dphi_v[:, None, None] * cb / Hm)[..., None],
-            np.einsum("f,a,st->fsat", phi, b, np.eye(ns)) / Hm[..., None],
-            np.einsum("f,s,at->fsat", phi, c, np.eye(na)) / Hm[..., None]]
-    return np.concatenate(cols, axis=-1).reshape(-1, 2 + ns + na)
+    Ju = (-phi**2 * (2 * z * s + 2 * w) * w)[:, None, None] * cb * Q
+    Jv = (-phi**2 * (2 * w * s) * z)[:, None, None] * cb * Q
+    P2 = (P.real**2 + P.imag**2).sum(axis=0)                                # (ns, na)
+    A = np.zeros((2 + ns + na, 2 + ns + na))
+    g = np.zeros(2 + ns + na)
+    for i, Jx in enumerate((Ju, Jv)):
+        for k, Jy in enumerate((Ju, Jv)):
+            A[i, k] = np.sum((np.conj(Jx) * Jy).real)
+        X = (np.conj(Jx) * P).real.sum(axis=0)                              # (ns, na)
+        A[i, 2:2 + ns] = A[2:2 + ns, i] = X @ b
+        A[i, 2 + ns:] = A[2 + ns:, i] = c @ X
+        g[i] = np.sum((np.conj(Jx) * r).real)
+    A[2:2 + ns, 2:2 + ns] = np.diag(P2 @ b**2)
+    A[2 + ns:, 2 + ns:] = np.diag(c**2 @ P2)
+    A[2:2 + ns, 2 + ns:] = P2 * cb
+    A[2 + ns:, 2:2 + ns] = (P2 * cb).T
+    Y = (np.conj(P) * r).real.sum(axis=0)                                   # (ns, na)
+    g[2:2 + ns] = Y @ b
+    g[2 + ns:] = c @ Y
+    return A, g
 
 
-def _refine_mode(placed, H, w, z, c, b, wlim, steps=25, window=True):
+def _refine_mode(placed, H, w, z, c, b, wlim, steps=15, window=True):
     """Levenberg-Marquardt on the complex logLS of an extra mode, on the lines around it
     (the linearised fit of :func:`_mode_residue` is poor where the mode is entirely missing,
     the residual there being large)."""
@@ -271,10 +289,8 @@ def _refine_mode(placed, H, w, z, c, b, wlim, steps=25, window=True):
     wx, zx, phi, Hm = model(x)
     J, mu = cost(Hm, Hd), 1e-3
     for _ in range(steps):
-        r = complex_residual(Hm, Hd).reshape(-1)
-        Jm = _mode_jacobian(s, wx, zx, x[2:2 + ns], x[2 + ns:], phi, Hm)
-        A = (Jm.conj().T @ Jm).real
-        g = (Jm.conj().T @ r).real
+        r = complex_residual(Hm, Hd)
+        A, g = _mode_normal(s, wx, zx, x[2:2 + ns], x[2 + ns:], phi, Hm, r)
         d = np.diag(A) + 1e-12 * max(np.trace(A), 1e-300)
         for _try in range(6):
             xt = x - np.linalg.solve(A + mu * np.diag(d), g)

@@ -80,8 +80,9 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         :func:`~sdctrl.identification.initial_poles` candidates no LSCF pole explains
         (peaks of the summed FRF and of the first singular values of ``H(f)``, damping
         from the half-power width); then rounds of removing poles that do not converge,
-        fit noise, are fillers or are not significant, trying out-of-band poles just
-        below and above the band, and adding poles at residual peaks (missed modes).
+        fit noise, are fillers or are not significant (once out-of-band poles just below
+        and above the band were tried), trying those out-of-band poles, and adding poles
+        at residual peaks (missed modes).
         The search stops when the fit is numerically exact, or after a round whose
         residual-peak candidates were all rejected.
     band : (float, float), optional
@@ -111,7 +112,10 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     min_bandwidth : float
         Poles whose half-power bandwidth ``2 zeta f`` is below this fraction of the line
         spacing are rejected as noise fitting (automatic mode); such a peak is resolved
-        by fewer than two lines and cannot be told from noise.
+        by fewer than two lines and cannot be told from noise, unless (in band) the
+        lines on its flanks determine its damping: standard deviation of ``ln zeta``
+        from the noise (3.56) below 0.5, i.e. a damping more than two standard
+        deviations above zero (a lightly damped mode well above the noise).
     zeta_max : float
         In-band poles with a larger damping ratio are rejected as fillers (automatic mode).
     significance : float

@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl.identification.residues import basis_derivatives, stack
+
 __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
 
 
@@ -255,3 +257,53 @@ class NoiseTest:
             dl = d[:nf] + d[nf:]
             sc[j] = 0.5 * (dl @ sig2) / npp                     # per column
         return dJ / np.maximum(self.threshold(sc), self.floor)
+
+    def log_damping_std(self, w, z, ev, poles) -> np.ndarray:
+        """Standard deviation of ``ln zeta`` of the ``poles`` (indices) due to the noise.
+
+        The sensitivity of the optimal poles to the data (3.56) is, to first order,
+        ``dx = -(J^T J)^-1 J^T dY`` with ``J`` the (Kaufman) Jacobian of the residual with
+        respect to ``x = [ln omega; ln zeta]``; with the noise field (:meth:`field`,
+        independent lines and columns, half of ``E[r_re^2 + r_im^2]`` on each of the two
+        rows of a line) the variance of parameter ``a`` is ``u^T J^T Sigma J u`` with
+        ``u = (J^T J)^-1 e_a``.  A pole whose damping is not determined by the data (a
+        bandwidth below the line spacing fitted to noise) has a standard deviation of
+        ``ln zeta`` of order one or more; a resolved one far below one.
+
+        Parameters
+        ----------
+        w, z : ndarray, shape (n,)
+            Poles of the fit (rad/s, damping ratio).
+        ev : dict
+            Their evaluation (:meth:`PoleProblem.evaluate`).
+        poles : array_like of int
+            Poles whose damping uncertainty is wanted.
+
+        Returns
+        -------
+        ndarray
+            ``std(ln zeta)`` per pole in ``poles`` (inf when the Jacobian is singular).
+        """
+        prob = self.prob
+        n, npp, nf = w.size, prob.npp, self.nf
+        lsq, C = ev["lsq"], ev["C"]
+        deriv = basis_derivatives(ev["lam"], w, z, prob.s, prob.k, prob.model)
+        D = stack(deriv.transpose(1, 0, 2, 3).reshape(nf, 2 * n * npp))   # par a: cols a*npp
+        D -= lsq.Q @ (lsq.Q.T @ D)                                       # P_perp dPhi/dx
+        crow = (np.arange(2 * n) % n)[:, None] * npp + np.arange(npp)[None, :]
+        Cp = C[crow.ravel()]                                             # (2n npp, k)
+        G = (D.T @ D).reshape(2 * n, npp, 2 * n, npp)
+        CC = (Cp @ Cp.T).reshape(2 * n, npp, 2 * n, npp)
+        A = np.einsum("aubv,aubv->ab", G, CC)                           # J^T J
+        sig2 = 0.5 * self.field(ev)                                     # per row of a line
+        out = np.full(len(poles), np.inf)
+        for i, j in enumerate(poles):
+            e = np.zeros(2 * n)
+            e[n + j] = 1.0
+            try:
+                u = np.linalg.solve(A, e)
+            except np.linalg.LinAlgError:
+                continue
+            Ju = D @ (np.repeat(u, npp)[:, None] * Cp)                  # J u, (2nf, k)
+            out[i] = np.sqrt(float(np.sum((Ju[:nf] ** 2 + Ju[nf:] ** 2) * sig2)))
+        return out
