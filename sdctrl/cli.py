@@ -1,160 +1,56 @@
-"""The ``sdctrl`` command: ``sdctrl demo`` (the main job), ``sdctrl info FILE`` and
-``sdctrl diagnose MODEL.npz DATA.uff [--fe FE.npz]``."""
+"""The ``sdctrl`` command line: ``demo``, ``identify``, ``diagnose``, ``info`` (arguments
+only; the jobs live in :mod:`sdctrl.story` and :mod:`sdctrl.diagnosis`)."""
 
 from __future__ import annotations
 
 import argparse
 import os
 import sys
-import time
 
-import numpy as np
+__all__ = ["main"]
 
-__all__ = ["demo", "main"]
+_DESCRIPTION = """\
+sdctrl turns vibration tests (measured FRFs) and finite element models of lightly
+damped structures into control-ready python-control StateSpace models
+(E. Balmes, MIT PhD thesis, 1993)."""
 
+_EPILOG = """\
+examples:
+  sdctrl demo                          the whole story on the built-in testbed
+  sdctrl identify test.uff --band 8 60 the modes of your own test, with a report
+  sdctrl diagnose model.npz new.uff --fe fe.npz
+                                       what a saved model lacks against a new test
+  sdctrl info test.uff                 what a UFF file or a saved model holds
 
-def _chain_model():
-    """Three masses on springs with a dashpot between masses 1 and 2 (non-proportional damping)."""
-    from sdctrl.modal import NormalModeModel
+Run 'sdctrl COMMAND --help' for the options of a command."""
 
-    m = np.array([1.0, 1.5, 0.8])
-    k = np.array([4.0e4, 3.0e4, 2.5e4])          # N/m, ground-1, 1-2, 2-3
-    M = np.diag(m)
-    K = np.array([[k[0] + k[1], -k[1], 0], [-k[1], k[1] + k[2], -k[2]], [0, -k[2], k[2]]])
-    C = 2e-5 * K + np.array([[0, 0, 0], [0, 6.0, -6.0], [0, -6.0, 6.0]])
-    from scipy.linalg import eigh
+_DEMO = """\
+Run the whole story on the built-in testbed (a truss carrying three plates, 246 DOFs,
+31 sensors x 6 shakers) and write a report:
 
-    w2, phi = eigh(K, M)
-    dofs = ["N1.x", "N2.x", "N3.x"]
-    b = np.eye(3)[:, [0, 2]]
-    return NormalModeModel(np.diag(w2), phi.T @ C @ phi, phi, phi.T @ b,
-                           sensors=dofs, actuators=["N1.x", "N3.x"], shapes=phi, dofs=dofs)
+  simulated test with noise -> identification (stabilisation diagram)
+  -> normal modes with non-proportional damping -> update of a deliberately wrong
+  FE model -> hybrid test/FE model -> D-strut placement and closed-loop RMS
+  -> structured uncertainty and a robust-stability margin
+  -> diagnosis of an undeclared effect planted in a second test.
 
+Each step prints one line with its time. The folder OUT receives report.html (one
+self-contained page: figures embedded, table of contents, every section's key numbers
+against the truth), report.md with figures/, summary.json, the models (read back with
+sdctrl.load) and the two simulated tests as UFF files. Takes about a minute.
+Exit status: 0 when every step ran, 1 when one failed (the report says why)."""
 
-def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bool = False) -> str:
-    """Run the demonstration job and write its report; return the report path.
+_IDENTIFY = """\
+Identify the modes of your own test: no initial poles are needed. Prints a table of
+the modes and writes OUT/report.html (stabilisation diagram, test vs identified model,
+modes table, complex residues; the normal modes and their full damping matrix when the
+file declares collocated sensor/actuator pairs), report.md, summary.json and the models
+identified.npz and normal_modes.npz (read back with sdctrl.load).
 
-    Builds the built-in model, synthesises its measured FRFs (with noise), identifies
-    complex modes from them with no initial guess (chapter III), turns them into normal
-    modes with a full damping matrix (3.3), compares poles and damping matrix with the
-    truth, converts the identified model to a python-control StateSpace and checks it,
-    and writes ``report.md`` with a Bode plot PNG (test, truth, identified model) to the
-    folder ``out``.
+DATA is a UFF file of FRFs (dataset 58, .uff or .unv) or an FRF saved with sdctrl.save
+(.npz)."""
 
-    Parameters
-    ----------
-    out : str
-        Output folder (created).
-    noise : float
-        Relative complex Gaussian noise added to the synthetic FRFs.
-    seed : int
-        Seed of the noise.
-    quiet : bool
-        Do not print progress lines.
-
-    Returns
-    -------
-    str
-        Path of the markdown report.
-    """
-    from sdctrl.frf import FRF
-    from sdctrl.plot import bode
-    from sdctrl.report import markdown_table, modes_table
-
-    def say(msg):
-        if not quiet:
-            print(msg, flush=True)
-
-    os.makedirs(out, exist_ok=True)
-    t0 = time.perf_counter()
-    model = _chain_model()
-    say(f"model: {model.n} modes, {model.ns} sensors, {model.na} actuators")
-    freq = np.linspace(2.0, 80.0, 1200)
-    exact = model.frf(freq, "acceleration")
-    rng = np.random.default_rng(seed)
-    # multiplicative noise plus a floor 60 dB below each FRF's peak
-    scale = noise * np.abs(exact.H) + 1e-3 * np.abs(exact.H).max(axis=0, keepdims=True)
-    H = exact.H + scale * (rng.standard_normal(exact.H.shape)
-                           + 1j * rng.standard_normal(exact.H.shape)) / np.sqrt(2)
-    measured = FRF(freq, H, "acceleration", sensors=exact.sensors, actuators=exact.actuators,
-                   collocated=[(0, 0), (2, 1)])
-    import sdctrl as sd
-    from sdctrl.updating.costs import logls
-
-    t1 = time.perf_counter()
-    cm = sd.identify(measured, progress=False)
-    say(f"identified {cm.in_band.sum()} modes in the band ({time.perf_counter() - t1:.1f} s)")
-    nm = sd.normal_modes(cm, modes=cm.in_band)
-    true_p = model.poles
-    order = [int(np.argmin(np.abs(true_p - p))) for p in cm.poles[cm.in_band]]
-    sg = np.sign(np.sum(nm.cphi * model.cphi[:, order], axis=0))
-    gamma_err = (np.linalg.norm(nm.Gamma * np.outer(sg, sg) - model.Gamma[np.ix_(order, order)])
-                 / np.linalg.norm(model.Gamma))
-    identified = nm.frf(freq, "acceleration")
-    cost_id, cost_true = logls(identified, measured), logls(exact, measured)
-    say(f"normal modes: damping matrix error {gamma_err:.1e} (Frobenius, relative); logLS "
-        f"cost {cost_id:.2e} (the true model's: {cost_true:.2e})")
-    sys_ss = nm.to_statespace("acceleration")
-    from_ss = FRF.from_system(sys_ss, freq, "acceleration")
-    ss_err = np.abs(from_ss.H - identified.H).max() / np.abs(identified.H).max()
-    say(f"StateSpace vs identified model FRF: max relative error {ss_err:.1e}")
-    png = os.path.join(out, "bode.png")
-    bode([measured, exact, from_ss],
-         labels=[f"synthetic test ({100 * noise:g}% noise)", "true model",
-                 "identified StateSpace"], path=png, title="sdctrl demo: collocated FRFs")
-    gam_true = np.array2string(model.Gamma, precision=3, suppress_small=True)
-    gam_id = np.array2string(nm.Gamma * np.outer(sg, sg), precision=3, suppress_small=True)
-    rows = [(s, a) for s, a in measured.collocated]
-    lines = [
-        "# sdctrl demo report",
-        "",
-        (f"Built-in model: {model.n}-mode spring/mass chain with a discrete dashpot "
-        "(non-proportional damping), sensors "
-        f"{', '.join(model.sensors)}, actuators {', '.join(model.actuators)}."),
-        "",
-        "## Modes of the model",
-        "",
-        modes_table(model.poles),
-        "",
-        "## Synthetic test",
-        "",
-        f"{freq.size} lines, {freq[0]:g}-{freq[-1]:g} Hz, acceleration/force, "
-        f"{100 * noise:g}% multiplicative complex noise and a floor 60 dB below each peak "
-        f"(seed {seed}); collocated pairs "
-        + ", ".join(f"{measured.sensors[s]}/{measured.actuators[a]}" for s, a in rows) + ".",
-        "",
-        "## Identification (no initial poles)",
-        "",
-        "Complex modes by `sd.identify` (chapter III): identified against true poles.",
-        "",
-        modes_table(cm.poles[cm.in_band], true_p[order]),
-        "",
-        "## Normal modes and the damping matrix",
-        "",
-        ("`sd.normal_modes` (3.3): properness enforced by the small Riccati root (3.52), exact "
-        "transformation (3.44).  The dashpot couples the modes: `Gamma` is full."),
-        "",
-        f"True `Gamma` (rad/s):\n\n```\n{gam_true}\n```\n",
-        f"Identified `Gamma` (rad/s):\n\n```\n{gam_id}\n```\n",
-        (f"Relative error (Frobenius): {gamma_err:.1e}.  logLS cost (3.12) against the test: "
-        f"identified {cost_id:.2e}, true model {cost_true:.2e}."),
-        "",
-        "## State-space model of the identified normal modes",
-        "",
-        markdown_table(["states", "inputs", "outputs", "max rel. FRF error vs model"],
-                       [(sys_ss.nstates, ", ".join(sys_ss.input_labels),
-                         ", ".join(sys_ss.output_labels), f"{ss_err:.1e}")]),
-        "",
-        "![Bode plot](bode.png)",
-        "",
-        f"Run time: {time.perf_counter() - t0:.2f} s.",
-        "",
-    ]
-    path = os.path.join(out, "report.md")
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(lines))
-    say(f"report written to {path}")
-    return path
+_INFO = "Summarise an FRF file (.uff/.unv or .npz) or a model saved with sdctrl.save."
 
 
 def _info(path: str) -> int:
@@ -172,6 +68,51 @@ def _info(path: str) -> int:
         print("collocated:", ", ".join(f"{frf.sensors[s]}/{frf.actuators[a]}"
                                        for s, a in frf.collocated))
     return 0
+
+
+# --- one pair of functions per command: its arguments, its job ------------------------------
+def _demo_args(sub) -> None:
+    p = sub.add_parser("demo", help="run the whole story on the built-in testbed",
+                       description=_DEMO, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default="sdctrl-demo", metavar="DIR",
+                   help="output folder (default: sdctrl-demo)")
+    p.add_argument("--noise", type=float, default=0.01,
+                   help="relative noise of the simulated tests (default: 0.01)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def _demo_run(args) -> int:
+    from sdctrl.story import demo
+
+    return demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
+
+
+def _identify_args(sub) -> None:
+    p = sub.add_parser("identify", help="identify the modes of your own test",
+                       description=_IDENTIFY,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("path", metavar="DATA", help="FRF file: .uff/.unv (dataset 58) or .npz")
+    p.add_argument("--band", type=float, nargs=2, metavar=("F1", "F2"),
+                   help="frequency band in Hz (default: every line of the file)")
+    p.add_argument("--out", metavar="DIR",
+                   help="output folder (default: DATA without extension + '-sdctrl')")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def _identify_run(args) -> int:
+    from sdctrl.story import identify_report
+
+    return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet)
+
+
+def _info_args(sub) -> None:
+    p = sub.add_parser("info", help="summarise an FRF file or a saved model", description=_INFO)
+    p.add_argument("path", metavar="FILE")
+
+
+def _info_run(args) -> int:
+    return _info(args.path)
 
 
 def _diagnose(args) -> int:
@@ -195,9 +136,14 @@ def _diagnose(args) -> int:
         report = d.report(figure=os.path.basename(args.figure))
     with open(args.report, "w", encoding="utf-8") as fh:
         fh.write(report)
+    from sdctrl.story.diagnosing import diagnosis_page
+
+    page = os.path.splitext(args.report)[0] + ".html"        # the same, one self-contained page
+    with open(page, "w", encoding="utf-8") as fh:
+        fh.write(diagnosis_page(d, args.model, args.data).to_html())
     print(f"error (complex logLS, 3.12): {d.error_before:.4g} before, {d.error_after:.4g} after")
     print(d.table() if d.effects else "no effect added: the model matches the data")
-    print(f"report written to {args.report}")
+    print(f"report written to {args.report} and {page}")
     return 0
 
 
@@ -207,11 +153,29 @@ def _diagnose_parser(sub) -> None:
     p.add_argument("model", help="model saved by sdctrl.save (.npz)")
     p.add_argument("data", help="measured FRFs (.uff/.unv, or .npz saved by sdctrl.save)")
     p.add_argument("--fe", help="FE model saved by sdctrl.save (.npz): physical candidates")
-    p.add_argument("--report", default="diagnosis.md", help="report (default diagnosis.md)")
+    p.add_argument("--report", default="diagnosis.md",
+                   help="markdown report (default diagnosis.md; an HTML page with the same "
+                   "stem is written next to it)")
     p.add_argument("--figure", help="also draw the figure there (e.g. diagnosis.png)")
     p.add_argument("--max-effects", type=int, default=4, help="at most this many effects")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(run=_diagnose)
+
+
+#: command name -> (add its arguments to the subparsers, run it); help lists them in order
+COMMANDS = {"demo": (_demo_args, _demo_run), "identify": (_identify_args, _identify_run),
+            "diagnose": (_diagnose_parser, _diagnose), "info": (_info_args, _info_run)}
+
+
+def _parser() -> argparse.ArgumentParser:
+    from sdctrl import __version__
+
+    parser = argparse.ArgumentParser(prog="sdctrl", description=_DESCRIPTION, epilog=_EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"sdctrl {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add_arguments, _ in COMMANDS.values():
+        add_arguments(sub)
+    return parser
 
 
 def main(argv=None) -> int:
@@ -225,26 +189,11 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        Exit status.
+        Exit status: 0 success, 1 a step of a job failed, 2 bad input.
     """
-    parser = argparse.ArgumentParser(prog="sdctrl", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("demo", help="run the demonstration job and write a report")
-    p.add_argument("--out", default="sdctrl-demo", help="output folder (default: sdctrl-demo)")
-    p.add_argument("--noise", type=float, default=0.01, help="relative FRF noise (default 0.01)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
-    p = sub.add_parser("info", help="summarise an FRF file (.uff/.unv or .npz) or a saved model")
-    p.add_argument("path")
-    _diagnose_parser(sub)
-    args = parser.parse_args(argv)
+    args = _parser().parse_args(argv)
     try:
-        if hasattr(args, "run"):
-            return args.run(args)
-        if args.command == "demo":
-            demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
-            return 0
-        return _info(args.path)
+        return COMMANDS[args.command][1](args)
     except (ValueError, TypeError, OSError) as exc:
         print(f"sdctrl: error: {exc}", file=sys.stderr)
         return 2

@@ -19,6 +19,7 @@ from dataclasses import fields
 
 import numpy as np
 
+from sdctrl._bandint import band_integral
 from sdctrl._validate import (
     as_array,
     as_statespace,
@@ -68,55 +69,6 @@ def _check_stable(A: np.ndarray, what: str = "sys") -> None:
 # ----------------------------------------------------------------------------------------
 # RMS
 # ----------------------------------------------------------------------------------------
-def _band_integral(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
-    """``W = int_{w1}^{w2} H(jw) S H(jw)^H dw`` (finite w2), closed form.
-
-    With ``R = (jw I - A)^-1``: ``L = int R dw = -j [log(j w2 I - A) - log(j w1 I - A)]``
-    (principal logarithms, continuous along the path because ``A`` is stable) and
-    ``X = int R Q R^H dw`` solves ``A X + X A^T = -(L Q + Q L^H)`` with ``Q = B S B^T``
-    (the frequency-limited Gramian of Gawronski and Juang).  Evaluated in the eigenbasis
-    of ``A`` (partial fractions: scalar logarithms, an elementwise Lyapunov solution) when
-    it is well conditioned, else with matrix logarithms (defective ``A``, e.g. critically
-    damped correction modes).
-    """
-    n = A.shape[0]
-    SD = S[:, None] * D.T                                    # S D^T
-    W = (w2 - w1) * (D @ SD)
-    if n == 0:
-        return W
-    lam, V = np.linalg.eig(A)
-    if np.linalg.cond(V) < 1e6:
-        Vi = np.linalg.inv(V)
-        Bt, Ct = Vi @ B, C @ V
-        ell = -1j * (np.log(1j * w2 - lam) - np.log(1j * w1 - lam))
-        Qt = (Bt * S) @ Bt.conj().T
-        Xt = -Qt * (ell[:, None] + ell.conj()[None, :]) / (lam[:, None] + lam.conj()[None, :])
-        Yt = ell[:, None] * (Bt @ SD)
-        CY = Ct @ Yt
-        return W + Ct @ Xt @ Ct.conj().T + CY + CY.conj().T
-    import warnings
-
-    from scipy.linalg import expm, logm, solve_continuous_lyapunov
-
-    Id = np.eye(n)
-    logs = []
-    for w in (w2, w1):
-        Z = 1j * w * Id - A
-        with warnings.catch_warnings():          # scipy's own estimate is checked below
-            warnings.simplefilter("ignore", RuntimeWarning)
-            Lw = logm(Z)
-        err = np.linalg.norm(expm(Lw) - Z, 1) / np.linalg.norm(Z, 1)
-        if err > 1e-6:
-            warnings.warn(f"rms: the matrix logarithm of a defective A is inaccurate "
-                          f"(relative error {err:.1e})", RuntimeWarning, stacklevel=3)
-        logs.append(Lw)
-    L = -1j * (logs[0] - logs[1])
-    Q = (B * S) @ B.T
-    X = solve_continuous_lyapunov(A.astype(complex), -(L @ Q + Q @ L.conj().T))
-    CY = C @ (L @ (B @ SD))
-    return W + C @ X @ C.T + CY + CY.conj().T
-
-
 def rms(sys, band, psd=1.0) -> np.ndarray:
     """RMS of each output for independent band-limited white-noise inputs.
 
@@ -201,9 +153,9 @@ def _rms(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
         else:
             var = np.zeros(C.shape[0])
         if w1 > 0:
-            var = var - np.real(np.diag(_band_integral(A, B, C, D, S, 0.0, w1)))
+            var = var - np.real(np.diag(band_integral(A, B, C, D, S, 0.0, w1)))
     else:
-        var = np.real(np.diag(_band_integral(A, B, C, D, S, w1, w2)))
+        var = np.real(np.diag(band_integral(A, B, C, D, S, w1, w2)))
     var = var / (2 * np.pi)
     check_finite_result(var, "the RMS", "sys, band or psd")
     return np.sqrt(np.clip(var, 0.0, None))

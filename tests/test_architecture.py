@@ -39,7 +39,7 @@ ROOT = pathlib.Path(sd.__file__).resolve().parent
 #: is allowed only at the end of the flow (``LAST``).
 ORDER = [
     "sdctrl.config", "sdctrl._validate", "sdctrl._util", "sdctrl._progress", "sdctrl._threads",
-    "sdctrl._statespace", "sdctrl._files", "sdctrl._npz",
+    "sdctrl._statespace", "sdctrl._bandint", "sdctrl._files", "sdctrl._npz",
     "sdctrl.frf", "sdctrl.io", "sdctrl.multitest", "sdctrl.uncertainty", "sdctrl._modal_ops",
     "sdctrl.modal", "sdctrl.identification", "sdctrl.fe",
     "sdctrl.updating.costs", "sdctrl.updating.correlation", "sdctrl.updating.expansion",
@@ -50,9 +50,10 @@ ORDER = [
     "sdctrl.closedloop", "sdctrl.mu_structure", "sdctrl.mu_lmi", "sdctrl.mu", "sdctrl.mu_sweep",
     "sdctrl.mu_lower", "sdctrl.robust",
     "sdctrl.placement", "sdctrl.testing",
-    "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.cli",
+    "sdctrl.diagnosis", "sdctrl.storage", "sdctrl.plot", "sdctrl.report", "sdctrl.story",
+    "sdctrl.cli",
 ]
-LAST = ("sdctrl.plot", "sdctrl.report", "sdctrl.cli")
+LAST = ("sdctrl.plot", "sdctrl.report", "sdctrl.story", "sdctrl.cli")
 
 
 def _modules():

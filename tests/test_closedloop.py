@@ -114,6 +114,34 @@ def test_rms_defective_and_lightly_damped_structure():
                        rtol=1e-7)
 
 
+def test_rms_with_critically_damped_correction_modes_takes_the_block_path():
+    """Several critically damped (defective) correction modes next to lightly damped modes:
+    the block-diagonal path (no matrix logarithm) agrees with quadrature and with the
+    matrix-logarithm path, and the closed-form logarithms of the 2x2 blocks are exact."""
+    from sdctrl import _bandint
+
+    fe = _truss()
+    nm = fe.normal_mode_model(["N17.y", "N11.z"], ["N17.y", "N19.x", "N8.y"], 12, static=True)
+    G = nm.to_statespace("acceleration")               # E through correction modes (2.20)
+    A, B, C, D = (np.asarray(x) for x in (G.A, G.B, G.C, G.D))
+    lam = np.linalg.eigvals(A)
+    assert np.linalg.cond(np.linalg.eig(A)[1]) > 1e6   # the eigenbasis is useless here
+    blocks = _bandint._blocks(A)
+    assert blocks is not None and np.count_nonzero(blocks[3]) >= 2
+    lam_b, W, Wi, N = blocks
+    np.testing.assert_allclose(W @ (np.diag(lam_b) + N) @ Wi, A, atol=1e-9 * np.abs(A).max())
+    near = np.abs(lam_b[:, None] - lam[None, :]).min(axis=1)
+    assert near.max() < 1e-6 * np.abs(lam).max()          # triangular form: its eigenvalues
+    band = (20.0, 600.0)
+    S = np.array([1.0, 2.0])
+    w1, w2 = 2 * np.pi * band[0], 2 * np.pi * band[1]
+    fast = _bandint.band_integral(A, B, C, D, S, w1, w2)
+    slow = _bandint._logm(A, B, C, S[:, None] * D.T, S, w1, w2) + (w2 - w1) * D @ (
+        S[:, None] * D.T)
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-7 * np.abs(slow).max())
+    assert np.allclose(rms(G, band, S), _quad_rms(G, band, S, _peaks(G)), rtol=1e-7)
+
+
 def test_rms_bad_input():
     G = control.ss(control.tf([1.0], [1.0, 0.1, 1.0]))
     with pytest.raises(ValueError, match="band"):

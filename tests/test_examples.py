@@ -1,15 +1,19 @@
-"""Examples and notebooks run in the test suite so that they never rot."""
+"""Examples, notebooks and the README's python blocks run in the test suite so that they
+never rot."""
 
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+
 EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+NOT_RUN = "# not executed"
 
 
 def _env():
@@ -20,40 +24,71 @@ def _env():
     return env
 
 
-@pytest.mark.parametrize("script", EXAMPLES, ids=[p.name for p in EXAMPLES])
+@pytest.mark.parametrize("script", EXAMPLES, ids=lambda p: p.name)
 def test_example_runs(script, tmp_path):
     proc = subprocess.run([sys.executable, str(script), str(tmp_path)], check=False,
                           cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, f"{script.name} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
 
 
-@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs(notebook, tmp_path, monkeypatch):
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
     for k, v in _env().items():
         monkeypatch.setenv(k, v)
+    monkeypatch.delenv("MPLBACKEND")          # the kernel's own inline backend, as in Jupyter
     nb = nbformat.read(notebook, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})
     client.execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    # a story with narrative and figures: each figure shown once (no repeated image)
+    images = [o["data"]["image/png"] for o in outputs if "image/png" in o.get("data", {})]
+    assert len(set(images)) == len(images)
+    if notebook.name[0].isdigit():            # the numbered stories each show figures
+        assert images
+    assert nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# ")
+    # progress bars in a notebook without ipywidgets: plain text, no "IProgress not found"
+    text = "\n".join(o.get("text", "") for o in outputs if o.get("output_type") == "stream")
+    assert "IProgress not found" not in text and "TqdmWarning" not in text
 
 
-def test_cli_demo(tmp_path):
-    from sdctrl.cli import main
+def readme_blocks(text: str) -> list[str]:
+    """The python blocks of the README that run, in order.
 
-    out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--quiet"]) == 0
-    report = (out / "report.md").read_text()
-    assert "# sdctrl demo report" in report and (out / "bode.png").stat().st_size > 10_000
-    assert "![Bode plot](bode.png)" in report
-    # the identification section: the 3 true modes found from noisy data, no initial guess
-    sec = report.split("## Identification")[1].split("##")[0]
-    rows = [r.split("|") for r in sec.splitlines() if r.startswith("| ") and r[2].isdigit()]
-    assert len(rows) == 3
-    assert max(abs(float(r[4])) for r in rows) < 1e-4          # relative frequency error
-    assert max(abs(float(r[7])) for r in rows) < 1e-3          # absolute damping error
-    assert "Identified `Gamma`" in report
+    Rule: every fenced block opened with ```python is executed, in order, in one
+    namespace (a fresh interpreter, a temporary folder as working directory, the Agg
+    backend), except a block whose first line is a comment starting with
+    ``# not executed`` -- an illustrative block that needs the reader's own files.
+    """
+    blocks = re.findall(r"^```python\n(.*?)^```", text, re.DOTALL | re.MULTILINE)
+    return [b for b in blocks if not b.lstrip().startswith(NOT_RUN)]
+
+
+def test_readme_blocks_recognised():
+    text = (ROOT / "README.md").read_text()
+    run = readme_blocks(text)
+    assert len(run) >= 4 and "sd.identify(frf)" in run[0]
+    assert len(re.findall(r"^```python", text, re.MULTILINE)) == len(run) + 1   # one illustrative
+    assert readme_blocks("```python\n# not executed: x\nfoo()\n```\n") == []
+    assert readme_blocks("```python\nx = 1\n```\n```sh\nls\n```\n") == ["x = 1\n"]
+
+
+def test_readme_first_session_runs_as_written(tmp_path):
+    code = "\n".join(readme_blocks((ROOT / "README.md").read_text()))
+    script = tmp_path / "readme_session.py"
+    script.write_text(code)
+    proc = subprocess.run([sys.executable, str(script)], check=False, cwd=tmp_path, env=_env(),
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, f"README failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    for fig in ("stabilisation.png", "bode.png", "envelope.png"):
+        assert (tmp_path / fig).stat().st_size > 10_000
+    assert (tmp_path / "hybrid.npz").exists()
+    # the numbers the comments announce
+    assert "12 modes" in proc.stdout or "12 in band" in proc.stdout
+    m = re.search(r"UpdateResult\(links=([-\d.]+), plates=([-\d.]+)", proc.stdout)
+    assert m and abs(float(m.group(1)) - 1 / 3) < 0.01 and abs(float(m.group(2)) + 0.2) < 0.01
 
 
 def test_cli_console_script_and_info(tmp_path):
@@ -73,3 +108,26 @@ def test_cli_console_script_and_info(tmp_path):
     bad = subprocess.run(cmd + ["info", str(tmp_path / "missing.uff")], check=False,
                          capture_output=True, text=True, env=_env(), timeout=120)
     assert bad.returncode == 2 and "does not exist" in bad.stderr
+
+
+def test_readme_lists_every_example_and_notebook():
+    text = (ROOT / "README.md").read_text()
+    named = set(re.findall(r"`(?:\w+/)?([\w.]+\.(?:py|ipynb))`", text))
+    files = {p.name for p in (ROOT / "examples").glob("*.py")}
+    files |= {p.name for p in (ROOT / "notebooks").glob("*.ipynb")}
+    assert files <= named, files - named                 # each one is introduced
+    known = files | {p.name for d in ("sdctrl", "tests", "benchmarks", ".ci")
+                     for p in (ROOT / d).rglob("*")}
+    assert named <= known, named - known                 # no stale name
+
+
+def test_readme_opens_with_the_two_commands_ci_runs():
+    """.ci/run executes the first ```sh block: line 1 installs and runs the demo, line 2
+    installs the test extra and runs the suite."""
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"^```sh\n(.*?)^```", text, re.DOTALL | re.MULTILINE).group(1)
+    lines = block.splitlines()
+    assert len(lines) == 2 and all(x.strip() for x in lines)
+    assert "pip install ." in lines[0] and lines[0].rstrip().endswith("sdctrl demo")
+    assert '".[test]"' in lines[1] and "pytest" in lines[1]
+    assert text.index("```sh") < text.index("```python")

@@ -245,12 +245,27 @@ def test_noisy_auto_finds_in_band_modes():
 # --------------------------------------------------------------------------------------
 # automatic pole selection on noisy data: no spurious pole, weak real modes kept
 # --------------------------------------------------------------------------------------
-def _chain_demo(seed=0, noise=0.01, floor=1e-3):
-    """The package demo data: 3-mode chain, accelerations 2-80 Hz, 1200 lines, 1% noise
-    plus an additive floor of 1e-3 of each channel's peak (noise-dominated at low
-    frequency, as real accelerometer tests)."""
-    from sdctrl.cli import _chain_model
+def _chain_model():
+    """Three masses on springs with a dashpot between masses 1 and 2 (non-proportional
+    damping): the data of the package's first demo."""
+    from scipy.linalg import eigh
 
+    m = np.array([1.0, 1.5, 0.8])
+    k = np.array([4.0e4, 3.0e4, 2.5e4])          # N/m, ground-1, 1-2, 2-3
+    M = np.diag(m)
+    K = np.array([[k[0] + k[1], -k[1], 0], [-k[1], k[1] + k[2], -k[2]], [0, -k[2], k[2]]])
+    C = 2e-5 * K + np.array([[0, 0, 0], [0, 6.0, -6.0], [0, -6.0, 6.0]])
+    w2, phi = eigh(K, M)
+    dofs = ["N1.x", "N2.x", "N3.x"]
+    b = np.eye(3)[:, [0, 2]]
+    return sd.NormalModeModel(np.diag(w2), phi.T @ C @ phi, phi, phi.T @ b, sensors=dofs,
+                              actuators=["N1.x", "N3.x"], shapes=phi, dofs=dofs)
+
+
+def _chain_demo(seed=0, noise=0.01, floor=1e-3):
+    """The package's first demo data: 3-mode chain, accelerations 2-80 Hz, 1200 lines, 1%
+    noise plus an additive floor of 1e-3 of each channel's peak (noise-dominated at low
+    frequency, as real accelerometer tests)."""
     model = _chain_model()
     freq = np.linspace(2.0, 80.0, 1200)
     exact = model.frf(freq, "acceleration")

@@ -267,6 +267,27 @@ def test_non_positive_damping_is_warned_and_reported():
     assert nm.info["pole_error"] < 1e-12            # still the identified poles
 
 
+def test_non_positive_damping_warning_says_what_to_do():
+    true, col = _truth(12)
+    cm = _complex_modes(true, col)
+    rng = np.random.default_rng(5)
+    R = cm.residues
+    noise = rng.standard_normal(R.shape) + 1j * rng.standard_normal(R.shape)
+    cmp = cm.replace(residues=R + 1e-2 * noise * np.abs(R).max(axis=(1, 2))[:, None, None])
+    with pytest.warns(RuntimeWarning) as rec:
+        nm = sd.normal_modes(cmp)
+    w = next(w for w in rec if "positive semi-definite" in str(w.message))
+    msg = str(w.message)
+    assert w.filename == __file__                    # points at the caller's line
+    ec = nm.info["damping_eigenvalues"]
+    rel = ec.min() / np.abs(ec).max()
+    assert f"{rel:.1e} of it" in msg                 # the size, relative to the spectrum
+    assert "can be used as is" in msg and "damping_eigenvalues" in msg
+    # the advice follows the size: noise for a small one, a bad pole or pair for a large one
+    assert ("more lines or less noise" in msg) == (rel > -1e-2)
+    assert ("collocated pair" in msg) == (rel <= -1e-2)
+
+
 def test_large_correction_is_refused():
     true, col = _truth(12)
     cm = _complex_modes(true, col)

@@ -324,6 +324,8 @@ def test_stabilisation_diagram_points_and_background(testbed_frf):
     sv = np.linalg.svd(frf.H, compute_uv=False)
     np.testing.assert_allclose(ax_bg.get_lines()[0].get_ydata(), _db(sv[:, 0]))
     assert ax.get_ylabel() == "iteration" and ax_bg.get_xlabel() == "frequency (Hz)"
+    cmif = ax_bg.get_ylabel()                 # "CMIF (dB re 1 m/s^2/N)": unit, balanced
+    assert cmif.startswith("CMIF (dB re 1 ") and cmif.endswith("/N)") and cmif.count(")") == 1
     flags = sd.plot.stabilisation_flags(orders)
     labels = [c.get_label() for c in ax.collections]
     assert labels[0] == "new pole" and "stable in frequency and damping" in labels

@@ -418,15 +418,29 @@ def transformation(psi: np.ndarray, lam: np.ndarray):
     ec = sla.eigh(CT, MT, eigvals_only=True)       # damping relative to mass: rad/s
     pd["damping"] = bool(ec.min() >= -1e-12 * max(np.abs(ec).max(), 1e-300))
     if not pd["damping"]:
-        warnings.warn(f"normal_modes: the identified damping matrix is not positive "
-                      f"semi-definite (3.45; min eigenvalue {ec.min():.3g} rad/s against "
-                      f"max {ec.max():.3g})", RuntimeWarning, stacklevel=3)
+        warnings.warn(_damping_advice(ec), RuntimeWarning, stacklevel=4)
     info = {"mass_eigenvalues": np.linalg.eigvalsh(MT), "stiffness_eigenvalues":
             np.linalg.eigvalsh(KT), "damping_eigenvalues": ec, "positive_definite": pd}
     return MT, CT, KT, info
 
 
 # --- helpers ---------------------------------------------------------------------------------
+def _damping_advice(ec: np.ndarray) -> str:
+    """The non-positive damping warning (3.45): what was found and what to do about it."""
+    rel = ec.min() / max(np.abs(ec).max(), 1e-300)
+    cause = ("small: typically noise on a lightly damped or out-of-band mode; identify with "
+             "more lines or less noise around it" if rel > -1e-2 else
+             "large: look for a pole that is not a structural mode (cm.in_band, "
+             "cm.singular_value_ratios(); leave it out with modes=...) or a wrong collocated "
+             "pair (same point, same direction, same sign)")
+    return (f"normal_modes: the identified damping matrix is not positive semi-definite "
+            f"(3.45; min eigenvalue {ec.min():.3g} rad/s against max {ec.max():.3g}, "
+            f"{rel:.1e} of it). The model keeps the identified stable poles and can be used "
+            f"as is, but it is not passive along one direction, which matters for passivity "
+            f"arguments and bounds on Gamma (5.2.2). This one is {cause}; "
+            f"nm.info['damping_eigenvalues'] has the spectrum.")
+
+
 def _asymptotic(E, F, lam, R, info, rtol: float = 1e-10):
     """``E`` and ``F`` of the complex-mode model, None when negligible (round-off of a fit).
 

@@ -267,7 +267,7 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
             sv = _singular_values(frf.H)[:, :3]
             for k in range(sv.shape[1]):
                 ax_bg.plot(frf.freq, db(sv[:, k]), color="0.6", lw=1.0 if k == 0 else 0.6)
-            ax_bg.set_ylabel(f"CMIF, {db_label(frf.quantity)[4:-1]}")
+            ax_bg.set_ylabel(f"CMIF ({db_label(frf.quantity)[5:]}")
         else:
             ax_bg.plot(frf.freq, db(np.abs(frf.H).sum(axis=(1, 2))), color="0.6", lw=1.0)
             ax_bg.set_ylabel(f"sum |H|, {db_label(frf.quantity)[4:-1]}")
