@@ -60,8 +60,13 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       default (``expansion="regularised"``) the expansion basis holds every FE mode down
       to a quarter of the lowest paired eigenvalue and up to ``fmax`` plus the static
       shapes of the test inputs, and the fit is regularised toward the paired FE mode
-      (:func:`~sdctrl.updating.expansion.expand_regularised`): the expanded shapes match
-      the measured observabilities where the paired FE modes alone cannot.
+      (:func:`~sdctrl.updating.expansion.expand_regularised`), its prior spread and noise
+      level chosen per mode by leave-one-sensor-out cross-validation, so that the shapes
+      predict the DOFs without a sensor (untested outputs, modifications) rather than
+      interpolate the identification errors.  At the tested sensors the model keeps the
+      identified observabilities ``(c phi)_ID`` and at the tested inputs the identified
+      ``nm.phib`` (offsets of ``c phi_Ex`` carried like ``E`` below: dropped by
+      :meth:`~sdctrl.predictions.HybridModel.with_io`).
       ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
       paired FE modes;
     - out-of-band identified poles (``nm.info["in_band"]`` False) that pair with an FE
@@ -76,7 +81,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     - residual terms (``residual="identified"``, default): the test's residual flexibility
       ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
       over the band -- and the modal masses of the low modes are corrected to the
-      identified residual mass ``F``; the appended FE frequencies are scaled by ``kappa``,
+      identified residual mass ``F`` (a correction carried, like ``E``, by the low modes'
+      observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
       the median measured/FE frequency ratio of the paired modes.  Each of these steps is
       kept only if it brings the model closer to ``nm`` at the tested I/O
       (:func:`sdctrl.hybridbasis.select_residual`; ``info["residual"]``).  The kept
@@ -103,9 +109,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     sensor_c : array_like, shape (ns, N), or sequence of ns DOF labels
         The test sensors placed on the FE DOFs (rows match ``nm.sensors``).
     actuator_b : array_like, shape (N, na), or sequence of na DOF labels, optional
-        FE input shapes of the model's inputs; then ``phib = phi_c^T actuator_b``.  By
-        default the identified ``nm.phib`` is used for the measured modes and, when
-        ``nm.actuators`` are FE DOF labels, point forces for the other modes.
+        FE input shapes of the model's inputs (``phib = phi_c^T actuator_b`` for the
+        modes other than the measured ones, which keep the identified ``nm.phib``); by
+        default point forces at ``nm.actuators`` when they are FE DOF labels.
     fmax : float, optional
         Highest frequency (Hz) of the FE modes used; default five times the highest
         measured frequency.

@@ -99,9 +99,10 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float | None = N
     DOFs without a sensor: too broad a prior or too small a noise interpolates the
     identification errors of ``(c phi)_ID`` and the FE's errors, and spreads them, through
     the rich basis, over the unmeasured DOFs (a fixed ``spread=1, noise=1e-4`` did so).
-    By default both are chosen from the data by leave-one-sensor-out cross-validation
-    (:func:`loo_prior`): the prior whose fit on all the other sensors best predicts each
-    sensor's observabilities -- the very use of the expanded shapes at an untested DOF.
+    By default both are chosen, per mode, from the data by leave-one-sensor-out
+    cross-validation (:func:`loo_prior`): the prior whose fit on all the other sensors
+    best predicts each sensor's observabilities -- the very use of the expanded shapes at
+    an untested DOF.
 
     Parameters
     ----------
@@ -115,10 +116,11 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float | None = N
         Identified modal observabilities.
     pair : array_like of int, shape (n,)
         Column of ``basis`` paired with each measured mode (:func:`pair_modes`).
-    spread : float, optional
-        Prior spread of the recombination (relative FE error level); default chosen
-        with ``noise`` by leave-one-sensor-out cross-validation (:func:`loo_prior`).
-    noise : float, optional
+    spread : float or array_like of shape (n,), optional
+        Prior spread of the recombination (relative FE error level), one or per mode;
+        default chosen per mode with ``noise`` by leave-one-sensor-out cross-validation
+        (:func:`loo_prior`).
+    noise : float or array_like of shape (n,), optional
         Relative noise level of the identified observabilities; default likewise.
 
     Returns
@@ -153,8 +155,14 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float | None = N
     ns = G.shape[0]
     if spread is None or noise is None:
         spread, noise = loo_prior(G, lam, Y, p, spread=spread, noise=noise)
-    spread = check_scalar(spread, "spread", positive=True)
-    noise = check_scalar(noise, "noise", positive=True)
+    if np.ndim(spread) == 0:
+        spread = check_scalar(spread, "spread", positive=True)
+    if np.ndim(noise) == 0:
+        noise = check_scalar(noise, "noise", positive=True)
+    spread, noise = (np.broadcast_to(np.asarray(v, float), (p.size,)) for v in (spread, noise))
+    if not (np.all(np.isfinite(spread) & (spread > 0)) and np.all(np.isfinite(noise)
+                                                                  & (noise > 0))):
+        raise ValueError("spread and noise must be positive and finite (one or per mode)")
     S, A0 = _prior(G, lam, Y, p, spread)
     s2 = (noise * np.linalg.norm(Y, axis=0)) ** 2 / ns
     K = np.einsum("ik,jk,nk->nij", G, G, S) + s2[:, None, None] * np.eye(ns)
@@ -170,7 +178,7 @@ def _prior(G, lam, Y, p, spread):
     alpha = np.einsum("ij,ij->j", gp, Y) / np.maximum(np.einsum("ij,ij->j", gp, gp), 1e-300)
     lp = lam[p][:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = spread * np.abs(lp) / np.abs(lp - lam[None, :])
+        ratio = np.reshape(spread, (-1, 1)) * np.abs(lp) / np.abs(lp - lam[None, :])
     sig = np.minimum(np.nan_to_num(ratio, nan=1.0, posinf=1.0), 1.0)      # (n, m)
     sig[np.arange(p.size), p] = 1.0
     S = (sig * np.abs(alpha)[:, None]) ** 2
@@ -194,9 +202,9 @@ def loo_prior(G, lam, Y, pair, *, spread=None, noise=None):
     ``e_ij = [K_j^-1 y_j]_i / [K_j^-1]_ii``, in closed form.  The prior mean (the paired
     shape scaled on every sensor) is turned into a zero mean with its own variance added,
     so that no sensor takes part in its own prediction.  The pair (``spread``, ``noise``)
-    minimising ``sum_j ||e_j||^2 / ||(c phi)_ID,j||^2`` on the grids :data:`SPREADS` x
-    :data:`NOISES` (one pair for all modes) is returned: the prior that best predicts the
-    shapes at a DOF without a sensor, the use the expanded shapes are made for.
+    minimising ``||e_j||^2`` on the grids :data:`SPREADS` x :data:`NOISES` is chosen for
+    each mode: the prior that best predicts the mode's shape at a DOF without a sensor,
+    the use the expanded shapes are made for.
 
     Parameters
     ----------
@@ -213,27 +221,25 @@ def loo_prior(G, lam, Y, pair, *, spread=None, noise=None):
 
     Returns
     -------
-    spread, noise : float
+    spread, noise : ndarray, shape (n,)
+        Per mode.
     """
     spreads = SPREADS if spread is None else np.array([float(spread)])
     noises = NOISES if noise is None else np.array([float(noise)])
-    ns = G.shape[0]
+    ns, n = Y.shape
     nrm2 = np.maximum(np.sum(Y**2, axis=0), 1e-300)
-    best = (np.inf, spreads[-1], noises[-1])
-    for sp in spreads:
+    cost = np.zeros((spreads.size, noises.size, n))
+    for i, sp in enumerate(spreads):
         S, A0 = _prior(G, lam, Y, pair, sp)
         S = S + (A0**2).T
-        cost = np.zeros(noises.size)
-        for j in range(Y.shape[1]):
+        for j in range(n):
             Kj = (G * S[j]) @ G.T
             d, Q = np.linalg.eigh(0.5 * (Kj + Kj.T))
             D = np.clip(d, 0, None)[None, :] + (noises**2 * nrm2[j] / ns)[:, None]
             e = ((Q.T @ Y[:, j])[None, :] / D) @ Q.T / ((1.0 / D) @ (Q**2).T)
-            cost += np.sum(e**2, axis=1) / nrm2[j]
-        k = int(np.argmin(cost))
-        if cost[k] < best[0]:
-            best = (cost[k], sp, noises[k])
-    return float(best[1]), float(best[2])
+            cost[i, :, j] = np.sum(e**2, axis=1) / nrm2[j]
+    i, j = np.unravel_index(np.argmin(cost.reshape(-1, n), axis=0), cost.shape[:2])
+    return spreads[i], noises[j]
 
 
 def pair_modes(cphi_fe, cphi_id):
