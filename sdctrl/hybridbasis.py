@@ -33,7 +33,7 @@ from sdctrl.fe.static import consistent_static_modes
 from sdctrl.modal import NormalModeModel
 from sdctrl.updating.expansion import expand, expand_regularised
 
-__all__ = ["HybridBasis", "build_basis", "fe_modes_upto", "select_residual"]
+__all__ = ["HybridBasis", "build_basis", "fe_modes_upto", "select_residual", "tested_offset"]
 
 #: low FE modes: eigenvalue below this fraction of the lowest paired FE eigenvalue
 LOW_FRACTION = 0.25
@@ -275,7 +275,8 @@ def _variant(nm, kept_modal, base, c, phib_meas, loads, zeta, kap, fit, w, R_t, 
     parts = {"measured": (base.expanded, np.diag(kept_modal.Omega), kept_modal.Gamma,
                           phib_meas),
              "low": (Sl, wl2), "appended": (base.appended, wa2),
-             "static": (base.static, base.static_w2), "zeta": zeta, "E": None}
+             "static": (base.static, base.static_w2), "zeta": zeta, "E": None,
+             "measured_offset": kept_modal.cphi - c @ base.expanded}
     if fit == "none" or loads is None:
         return parts
     # what the fixed appended and static modes give at the tested I/O
@@ -286,13 +287,17 @@ def _variant(nm, kept_modal, base, c, phib_meas, loads, zeta, kap, fit, w, R_t, 
             Ha = Ha + _modal_frf(c @ S, w2, gam, S.T @ loads, w)
     target = R_t - Ha
     W = 1.0 / np.maximum(np.abs(Href), 1e-300 * np.abs(Href).max()) ** 2
+    cl = c @ Sl
     if fit == "mass+E" and Sl.shape[1]:
-        P = _mass_fit(c @ Sl, Sl.T @ loads, wl2, zeta, w, target, W)
-        Sl, wl2 = _mass_corrected(Sl, wl2, P)
-        parts["low"] = (Sl, wl2)
+        P = _mass_fit(cl, Sl.T @ loads, wl2, zeta, w, target, W)
+        P = _mass_bounded(P)
+        # carried, like E, by the low modes' observabilities at the tested sensors: the
+        # low FE shapes (and their prediction at other DOFs) are left as they are
+        parts["low_offset"] = cl @ (P - np.eye(P.shape[0]))
+        cl = cl @ P
         parts["mass_correction"] = np.linalg.eigvalsh(P)
     if Sl.shape[1]:
-        target = target - _modal_frf(c @ Sl, wl2, 2 * zeta * np.sqrt(wl2), Sl.T @ loads, w)
+        target = target - _modal_frf(cl, wl2, 2 * zeta * np.sqrt(wl2), Sl.T @ loads, w)
     parts["E"] = np.sum(W * target.real, axis=0) / np.sum(W, axis=0)
     return parts
 
@@ -337,14 +342,39 @@ def _mass_fit(X, Z, w2, zeta, w, target, W):
     return P
 
 
-def _mass_corrected(S, w2, P):
-    """Low modes after the inverse-mass correction ``P``: shapes ``S R W``, ``R = P^1/2``,
-    frequencies of ``R diag(w2) R`` (the same springs, corrected masses)."""
+def _mass_bounded(P):
+    """The inverse-mass correction ``P`` with its eigenvalues within
+    :data:`MASS_CORRECTION`."""
     ev, V = np.linalg.eigh(0.5 * (P + P.T))
-    ev = np.clip(ev, *MASS_CORRECTION)
-    R = (V * np.sqrt(ev)) @ V.T
-    w2n, W = np.linalg.eigh(R @ np.diag(w2) @ R)
-    return S @ (R @ W), np.clip(w2n, 0, None)
+    return (V * np.clip(ev, *MASS_CORRECTION)) @ V.T
+
+
+def tested_offset(parts, ns: int) -> np.ndarray:
+    """What the tested sensors' observabilities hold beyond ``c @ shapes``.
+
+    The identified residual-mass correction of the low modes (``"mass+E"``) is carried at
+    the tested sensors only, as the residual flexibility ``E`` is (2.22): ``c S_l P``
+    instead of ``c S_l`` for the low modes.  Columns in the order of :func:`stack_parts`.
+
+    Parameters
+    ----------
+    parts : dict
+        From :func:`select_residual`.
+    ns : int
+        Number of tested sensors.
+
+    Returns
+    -------
+    ndarray, shape (ns, n)
+    """
+    sizes = [parts["measured"][0].shape[1]] + [parts[k][0].shape[1]
+                                                for k in ("low", "appended", "static")]
+    off = np.zeros((ns, sum(sizes)))
+    if parts.get("measured_offset") is not None:
+        off[:, :sizes[0]] = parts["measured_offset"]
+    if parts.get("low_offset") is not None:
+        off[:, sizes[0]:sizes[0] + sizes[1]] = parts["low_offset"]
+    return off
 
 
 def assemble(kept_modal, parts, c, loads):
@@ -367,7 +397,8 @@ def assemble(kept_modal, parts, c, loads):
         Modes in the order measured, low, appended, static.
     """
     shapes, w2, Gamma, phib, _ = stack_parts(parts, loads)
-    return NormalModeModel(np.diag(w2), Gamma, c @ shapes, phib, E=parts["E"],
+    cphi = c @ shapes + tested_offset(parts, c.shape[0])
+    return NormalModeModel(np.diag(w2), Gamma, cphi, phib, E=parts["E"],
                            sensors=kept_modal.sensors, actuators=kept_modal.actuators)
 
 

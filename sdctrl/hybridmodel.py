@@ -26,7 +26,13 @@ import numpy as np
 from sdctrl._validate import check_scalar
 from sdctrl.fe.static import consistent_static_modes
 from sdctrl.fe.validation import check_fe_model, shapes_on_dofs
-from sdctrl.hybridbasis import build_basis, fe_modes_upto, select_residual, stack_parts
+from sdctrl.hybridbasis import (
+    build_basis,
+    fe_modes_upto,
+    select_residual,
+    stack_parts,
+    tested_offset,
+)
 from sdctrl.modal import NormalModeModel
 from sdctrl.predictions import HybridModel, pairing_report
 from sdctrl.updating.expansion import MAC_POOR, pair_modes
@@ -54,8 +60,13 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       default (``expansion="regularised"``) the expansion basis holds every FE mode down
       to a quarter of the lowest paired eigenvalue and up to ``fmax`` plus the static
       shapes of the test inputs, and the fit is regularised toward the paired FE mode
-      (:func:`~sdctrl.updating.expansion.expand_regularised`): the expanded shapes match
-      the measured observabilities where the paired FE modes alone cannot.
+      (:func:`~sdctrl.updating.expansion.expand_regularised`), its prior spread and noise
+      level chosen per mode by leave-one-sensor-out cross-validation, so that the shapes
+      predict the DOFs without a sensor (untested outputs, modifications) rather than
+      interpolate the identification errors.  At the tested sensors the model keeps the
+      identified observabilities ``(c phi)_ID`` and at the tested inputs the identified
+      ``nm.phib`` (offsets of ``c phi_Ex`` carried like ``E`` below: dropped by
+      :meth:`~sdctrl.predictions.HybridModel.with_io`).
       ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
       paired FE modes;
     - out-of-band identified poles (``nm.info["in_band"]`` False) that pair with an FE
@@ -70,7 +81,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     - residual terms (``residual="identified"``, default): the test's residual flexibility
       ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
       over the band -- and the modal masses of the low modes are corrected to the
-      identified residual mass ``F``; the appended FE frequencies are scaled by ``kappa``,
+      identified residual mass ``F`` (a correction carried, like ``E``, by the low modes'
+      observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
       the median measured/FE frequency ratio of the paired modes.  Each of these steps is
       kept only if it brings the model closer to ``nm`` at the tested I/O
       (:func:`sdctrl.hybridbasis.select_residual`; ``info["residual"]``).  The kept
@@ -97,9 +109,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     sensor_c : array_like, shape (ns, N), or sequence of ns DOF labels
         The test sensors placed on the FE DOFs (rows match ``nm.sensors``).
     actuator_b : array_like, shape (N, na), or sequence of na DOF labels, optional
-        FE input shapes of the model's inputs; then ``phib = phi_c^T actuator_b``.  By
-        default the identified ``nm.phib`` is used for the measured modes and, when
-        ``nm.actuators`` are FE DOF labels, point forces for the other modes.
+        FE input shapes of the model's inputs (``phib = phi_c^T actuator_b`` for the
+        modes other than the measured ones, which keep the identified ``nm.phib``); by
+        default point forces at ``nm.actuators`` when they are FE DOF labels.
     fmax : float, optional
         Highest frequency (Hz) of the FE modes used; default five times the highest
         measured frequency.
@@ -189,15 +201,17 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
                       stacklevel=2)
     base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
                        fe_idx[kept], expansion)
-    phib_meas = nm.phib[kept] if b is None else base.expanded.T @ b
+    phib_meas = nm.phib[kept]
     zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
     parts, report = select_residual(nm, kept, base, c, phib_meas, loads, zeta_mean, residual)
     shapes, w2, Gamma, phib, kinds = stack_parts(parts, loads)
+    off = tested_offset(parts, c.shape[0])
     if static_b is not None:
-        shapes, w2, Gamma, phib, kinds = _append_static(fe, static_b, shapes, w2, Gamma,
-                                                        phib, kinds, loads)
+        shapes, w2, Gamma, phib, kinds, off = _append_static(fe, static_b, shapes, w2, Gamma,
+                                                             phib, kinds, loads, off)
     order = np.argsort(w2, kind="stable")
     shapes, w2, phib, kinds = shapes[:, order], w2[order], phib[order], kinds[order]
+    off = off[:, order]
     Gamma = Gamma[np.ix_(order, order)]
     pairing = {"test_mode": km, "fe_mode": fe_idx[kept], "mac": mac_pairs[kept],
                "test_hz": f_id[kept], "fe_hz": f_fe[fe_idx[kept]]}
@@ -208,7 +222,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
             "residual": report, "n_static": int(np.sum(kinds == "static"))}
     if "mass_correction" in parts:
         info["mass_correction"] = parts["mass_correction"]
-    cphi, E = _realise_residual(c @ shapes, w2, phib, kinds, parts["E"])
+    cphi, E = _realise_residual(c @ shapes + off, w2, phib, kinds, parts["E"])
     info["residual_flexibility"] = parts["E"]
     return HybridModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=nm.sensors,
                        actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info, fe=fe,
@@ -269,7 +283,7 @@ def _loads(fe, nm, b):
     return None, bool(nm.na)
 
 
-def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads):
+def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads, off):
     """Static correction modes for ``static_b`` consistent with ``shapes``.
 
     They are diagonalised on the stiffness together with the static correction of the test
@@ -282,7 +296,7 @@ def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads):
     V2, _ = consistent_static_modes(fe, Bs, shapes)
     k2 = V2.shape[1]
     if not k2:
-        return shapes, w2, Gamma, phib, kinds
+        return shapes, w2, Gamma, phib, kinds, off
     J = np.hstack([shapes[:, res], V2])                        # mass-orthonormal block
     Kj = J.T @ np.asarray(fe.K @ J)
     wc2, U = np.linalg.eigh(0.5 * (Kj + Kj.T))
@@ -297,8 +311,9 @@ def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads):
     G[n:, n:] = np.diag(2 * np.sqrt(np.clip(wc2, 0, None)))
     pb = np.vstack([phib[keep], V.T @ loads if loads is not None
                     else np.zeros((V.shape[1], phib.shape[1]))])
+    off = np.hstack([off[:, keep], np.zeros((off.shape[0], V.shape[1]))])
     return (np.hstack([shapes[:, keep], V]), np.concatenate([w2[keep], wc2]), G, pb,
-            np.concatenate([kinds[keep], label]))
+            np.concatenate([kinds[keep], label]), off)
 
 
 def _test_io(fe, nm, sensor_c, actuator_b):

@@ -139,9 +139,6 @@ def test_update_recovers_the_true_parameters_within_2_percent(demo):
     assert np.abs(f_upd[6:] / f_true[6:] - 1).max() < 3e-3
 
 
-@pytest.mark.xfail(strict=True, reason="since the issue-17 merge (hybridacc) the hybrid's "
-                   "prediction at the untested output N45.z is 0.50 logLS (was 0.015; the wrong "
-                   "FE model 2.03): with_io(c=...) on the new hybrid; reported to the lead")
 def test_hybrid_predicts_an_untested_output(demo):
     num = demo["steps"]["hybrid"]["numbers"]
     assert num["untested_logls"]["hybrid"] < 0.05 * num["untested_logls"]["wrong FE"]

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from sdctrl._validate import as_array
+from sdctrl._validate import as_array, check_scalar
 from sdctrl.updating.costs import mac
 
-__all__ = ["MAC_POOR", "expand", "expand_regularised", "pair_modes"]
+__all__ = ["MAC_POOR", "expand", "expand_regularised", "loo_prior", "pair_modes"]
 
 #: MAC below which a FE/test pair is reported as poor (with a warning)
 MAC_POOR = 0.8
@@ -71,8 +71,8 @@ def expand(phi_fe, c, cphi_id, rcond: float = 1e-10):
     return P @ A, A
 
 
-def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float = 1.0,
-                       noise: float = 1e-4):
+def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float | None = None,
+                       noise: float | None = None):
     """Expansion (4.7) on a rich basis, regularised by the perturbation prior of 4.1.1.
 
     Each measured mode is sought as ``phi_Ex_j = T a_j`` on a basis ``T`` richer than the
@@ -94,6 +94,16 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float = 1.0,
     observabilities up to ``noise``; basis vectors far in frequency from the paired mode
     are used little.
 
+    The spread and the noise level set how far the fit may leave the paired FE shape to
+    follow the measured observabilities, hence what the expanded shapes predict at the
+    DOFs without a sensor: too broad a prior or too small a noise interpolates the
+    identification errors of ``(c phi)_ID`` and the FE's errors, and spreads them, through
+    the rich basis, over the unmeasured DOFs (a fixed ``spread=1, noise=1e-4`` did so).
+    By default both are chosen, per mode, from the data by leave-one-sensor-out
+    cross-validation (:func:`loo_prior`): the prior whose fit on all the other sensors
+    best predicts each sensor's observabilities -- the very use of the expanded shapes at
+    an untested DOF.
+
     Parameters
     ----------
     basis : array_like, shape (N, m)
@@ -106,11 +116,12 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float = 1.0,
         Identified modal observabilities.
     pair : array_like of int, shape (n,)
         Column of ``basis`` paired with each measured mode (:func:`pair_modes`).
-    spread : float
-        Prior spread of the recombination (relative FE error level); only its ratio to
-        ``noise`` matters.
-    noise : float
-        Relative noise level of the identified observabilities.
+    spread : float or array_like of shape (n,), optional
+        Prior spread of the recombination (relative FE error level), one or per mode;
+        default chosen per mode with ``noise`` by leave-one-sensor-out cross-validation
+        (:func:`loo_prior`).
+    noise : float or array_like of shape (n,), optional
+        Relative noise level of the identified observabilities; default likewise.
 
     Returns
     -------
@@ -124,7 +135,8 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float = 1.0,
     >>> import numpy as np
     >>> T = np.eye(4)[:, :3]
     >>> c = np.eye(4)[:2]
-    >>> shapes, A = expand_regularised(T, [1.0, 4.0, 100.0], c, [[1.0], [0.2]], [0])
+    >>> shapes, A = expand_regularised(T, [1.0, 4.0, 100.0], c, [[1.0], [0.2]], [0],
+    ...                                spread=1.0, noise=1e-4)
     >>> np.round(A[:, 0], 3).tolist()               # mode 1 recombined, mode 3 unobserved
     [1.0, 0.2, 0.0]
     """
@@ -140,22 +152,94 @@ def expand_regularised(basis, lam, c, cphi_id, pair, *, spread: float = 1.0,
     if np.any(p < 0) or np.any(p >= T.shape[1]):
         raise ValueError("pair: index out of the basis")
     G = Cm @ T
-    ns, m = G.shape
-    gp = G[:, p]
-    alpha = np.einsum("ij,ij->j", gp, Y) / np.maximum(np.einsum("ij,ij->j", gp, gp), 1e-300)
-    lp = lam[p][:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = spread * np.abs(lp) / np.abs(lp - lam[None, :])
-    sig = np.minimum(np.nan_to_num(ratio, nan=1.0, posinf=1.0), 1.0)      # (n, m)
-    sig[np.arange(p.size), p] = 1.0
-    S = (sig * np.abs(alpha)[:, None]) ** 2
-    A0 = np.zeros((m, p.size))
-    A0[p, np.arange(p.size)] = alpha
+    ns = G.shape[0]
+    if spread is None or noise is None:
+        spread, noise = loo_prior(G, lam, Y, p, spread=spread, noise=noise)
+    if np.ndim(spread) == 0:
+        spread = check_scalar(spread, "spread", positive=True)
+    if np.ndim(noise) == 0:
+        noise = check_scalar(noise, "noise", positive=True)
+    spread, noise = (np.broadcast_to(np.asarray(v, float), (p.size,)) for v in (spread, noise))
+    if not (np.all(np.isfinite(spread) & (spread > 0)) and np.all(np.isfinite(noise)
+                                                                  & (noise > 0))):
+        raise ValueError("spread and noise must be positive and finite (one or per mode)")
+    S, A0 = _prior(G, lam, Y, p, spread)
     s2 = (noise * np.linalg.norm(Y, axis=0)) ** 2 / ns
     K = np.einsum("ik,jk,nk->nij", G, G, S) + s2[:, None, None] * np.eye(ns)
     R = (Y - G @ A0).T[:, :, None]                                         # (n, ns, 1)
     A = A0 + (S * np.einsum("ik,nil->nk", G, np.linalg.solve(K, R))).T
     return T @ A, A
+
+
+def _prior(G, lam, Y, p, spread):
+    """Prior variances ``S`` (n, m) and means ``A0`` (m, n) of :func:`expand_regularised`."""
+    m = G.shape[1]
+    gp = G[:, p]
+    alpha = np.einsum("ij,ij->j", gp, Y) / np.maximum(np.einsum("ij,ij->j", gp, gp), 1e-300)
+    lp = lam[p][:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.reshape(spread, (-1, 1)) * np.abs(lp) / np.abs(lp - lam[None, :])
+    sig = np.minimum(np.nan_to_num(ratio, nan=1.0, posinf=1.0), 1.0)      # (n, m)
+    sig[np.arange(p.size), p] = 1.0
+    S = (sig * np.abs(alpha)[:, None]) ** 2
+    A0 = np.zeros((m, p.size))
+    A0[p, np.arange(p.size)] = alpha
+    return S, A0
+
+
+#: candidate prior spreads and relative noise levels of the cross-validation
+SPREADS = np.logspace(-2.0, 0.5, 11)
+NOISES = np.logspace(-4.0, 0.0, 17)
+
+
+def loo_prior(G, lam, Y, pair, *, spread=None, noise=None):
+    """Prior spread and noise level of :func:`expand_regularised` by leave-one-sensor-out
+    cross-validation.
+
+    For the Gaussian model of :func:`expand_regularised` (prior covariance ``S_j`` of the
+    coefficients of mode ``j``, data covariance ``K_j = G S_j G^T + s_j^2 I``), the
+    prediction of sensor ``i`` from the fit on all the other sensors misses it by
+    ``e_ij = [K_j^-1 y_j]_i / [K_j^-1]_ii``, in closed form.  The prior mean (the paired
+    shape scaled on every sensor) is turned into a zero mean with its own variance added,
+    so that no sensor takes part in its own prediction.  The pair (``spread``, ``noise``)
+    minimising ``||e_j||^2`` on the grids :data:`SPREADS` x :data:`NOISES` is chosen for
+    each mode: the prior that best predicts the mode's shape at a DOF without a sensor,
+    the use the expanded shapes are made for.
+
+    Parameters
+    ----------
+    G : ndarray, shape (ns, m)
+        Basis at the sensors, ``c T``.
+    lam : ndarray, shape (m,)
+        Eigenvalues of the basis vectors.
+    Y : ndarray, shape (ns, n)
+        Identified observabilities.
+    pair : ndarray of int, shape (n,)
+        Paired basis vector of each mode.
+    spread, noise : float, optional
+        Either held fixed (the other is cross-validated).
+
+    Returns
+    -------
+    spread, noise : ndarray, shape (n,)
+        Per mode.
+    """
+    spreads = SPREADS if spread is None else np.array([float(spread)])
+    noises = NOISES if noise is None else np.array([float(noise)])
+    ns, n = Y.shape
+    nrm2 = np.maximum(np.sum(Y**2, axis=0), 1e-300)
+    cost = np.zeros((spreads.size, noises.size, n))
+    for i, sp in enumerate(spreads):
+        S, A0 = _prior(G, lam, Y, pair, sp)
+        S = S + (A0**2).T
+        for j in range(n):
+            Kj = (G * S[j]) @ G.T
+            d, Q = np.linalg.eigh(0.5 * (Kj + Kj.T))
+            D = np.clip(d, 0, None)[None, :] + (noises**2 * nrm2[j] / ns)[:, None]
+            e = ((Q.T @ Y[:, j])[None, :] / D) @ Q.T / ((1.0 / D) @ (Q**2).T)
+            cost[i, :, j] = np.sum(e**2, axis=1) / nrm2[j]
+    i, j = np.unravel_index(np.argmin(cost.reshape(-1, n), axis=0), cost.shape[:2])
+    return spreads[i], noises[j]
 
 
 def pair_modes(cphi_fe, cphi_id):
