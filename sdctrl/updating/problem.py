@@ -26,12 +26,31 @@ from sdctrl.updating.basis import reduced_basis
 from sdctrl.updating.costs import mac as mac_matrix
 from sdctrl.updating.parametric import modal_damping, reduced_model
 
-__all__ = ["UpdateProblem", "apply_parameters", "build_problem", "cluster_pairing"]
+__all__ = ["UpdateProblem", "apply_parameters", "build_problem", "cluster_pairing", "log_frf"]
 
 #: pairs with a MAC below this are not used to transfer the identified damping
 MAC_DAMPING = 0.6
 #: FE modes whose frequencies agree to this relative tolerance are paired as a subspace
 CLUSTER_RTOL = 1e-4
+
+
+def log_frf(rm, p, omega) -> np.ndarray:
+    """``log |H(p)|`` of a reduced model (the logLS (3.12) term), floored at ``1e-300``.
+
+    Parameters
+    ----------
+    rm : ReducedModel
+        The reduced parametric model.
+    p : array_like, shape (npar,)
+        Parameter values.
+    omega : ndarray, shape (nf,)
+        Lines (rad/s).
+
+    Returns
+    -------
+    ndarray, shape (nf, ns, na)
+    """
+    return np.log(np.abs(rm.frf(p, omega)) + 1e-300)
 
 
 def cluster_pairing(cphi_fe, freq, shapes, rtol: float = CLUSTER_RTOL):
@@ -173,7 +192,7 @@ class UpdateProblem:
         -------
         ndarray, shape (nf, ns, na)
         """
-        return np.log(np.abs(self.rm.frf(p, self.measured.omega)) + 1e-300)
+        return log_frf(self.rm, p, self.measured.omega)
 
     def residual(self, p) -> np.ndarray:
         """logLS residual vector, scaled so that its sum of squares is the cost (3.12).

@@ -36,7 +36,7 @@ from sdctrl._validate import check_int, check_scalar
 from sdctrl.fe.validation import check_fe_model
 from sdctrl.updating.fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating.measured import error_level, identify_test, measured_modes, place_test
-from sdctrl.updating.problem import build_problem
+from sdctrl.updating.problem import build_problem, log_frf
 
 __all__ = ["CostMap", "CostProblem", "Identifiability", "identifiability"]
 
@@ -350,5 +350,5 @@ class CostProblem:
         -------
         float
         """
-        r = np.log(np.abs(self.rm.frf(p, self.omega)) + 1e-300) - self.logH
+        r = log_frf(self.rm, p, self.omega) - self.logH
         return float(np.mean(r**2))
