@@ -88,14 +88,13 @@ def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True, exact: bool
             S = T @ Q @ T.conj().T
         else:
             S = C.conj().T @ Q @ C
-        w, Y = np.linalg.eigh(0.5 * (S + S.conj().T))
-        lam = float(w[-1])
+        lam, y = _top_eigenpair(S)
         if not grad:
             return lam, None
         if C is None:
-            xv = V @ Y[:, -1]
+            xv = V @ y
         else:                        # U C^-H z is the unit eigenvector of U Q U^H
-            xv = U @ sla.solve_triangular(C, Y[:, -1], lower=True, trans="C")
+            xv = U @ sla.solve_triangular(C, y, lower=True, trans="C")
         u = LK @ (RhH.conj().T @ xv)
         yv = u - 1j * st.apply(mats, xv, 2)
         v = RhH @ (LK.conj().T @ yv)
@@ -104,15 +103,19 @@ def evaluate(fm: Factored, st: BlockStructure, x, grad: bool = True, exact: bool
         Mh = st.apply(mats, st.apply(mats, M.conj().T, 1).conj().T, 0, herm=True)
         T = st.apply(mats, Mh, 2)
         S = Mh.conj().T @ Mh + 1j * (T - T.conj().T)
-        w, Y = np.linalg.eigh(0.5 * (S + S.conj().T))
-        lam = float(w[-1])
+        lam, xv = _top_eigenpair(S)
         if not grad:
             return lam, None
-        xv = Y[:, -1]
         u = Mh @ xv
         yv = u - 1j * st.apply(mats, xv, 2)
         v = Mh.conj().T @ yv
     return lam, st.gradient(mats, xv, u, yv, v)
+
+
+def _top_eigenpair(S):
+    """Largest eigenvalue and its unit eigenvector of the Hermitian part of ``S``."""
+    w, Y = np.linalg.eigh(0.5 * (S + S.conj().T))
+    return float(w[-1]), Y[:, -1]
 
 
 def _gram_factor(U):
@@ -134,11 +137,9 @@ def _evaluate_scalar(M, st: BlockStructure, x, grad: bool):
     Mh = M * (f[:, None] / f[None, :])
     T = gh[:, None] * Mh
     S = Mh.conj().T @ Mh + 1j * (T - T.conj().T)
-    w, Y = np.linalg.eigh(0.5 * (S + S.conj().T))
-    lam = float(w[-1])
+    lam, xv = _top_eigenpair(S)
     if not grad:
         return lam, None
-    xv = Y[:, -1]
     u = Mh @ xv
     yv = u - 1j * gh * xv
     v = Mh.conj().T @ yv
