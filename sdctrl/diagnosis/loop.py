@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 
 from sdctrl._threads import single_thread
-from sdctrl._validate import check_int, check_scalar
+from sdctrl._validate import check_executor, check_int, check_scalar
 from sdctrl.diagnosis.apply import DelayedModel, apply_effect
 from sdctrl.diagnosis.candidates import candidate_groups
 from sdctrl.diagnosis.effects import (
@@ -55,8 +55,7 @@ def _check(model, frf, fe, executor, max_effects, noise, reach):
         raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
     if fe is not None and not isinstance(fe, FEModel):
         raise TypeError(f"fe must be an sdctrl.FEModel or None, got {type(fe).__name__}")
-    if executor is not None and not callable(getattr(executor, "map", None)):
-        raise TypeError("executor must be a concurrent.futures.Executor (with .map) or None")
+    check_executor(executor)
     check_int(max_effects, "max_effects", minimum=0)
     check_scalar(noise, "noise", nonneg=True, optional=True)
     check_scalar(reach, "reach", positive=True, optional=True, allow_inf=True)

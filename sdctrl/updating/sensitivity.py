@@ -32,7 +32,7 @@ import numpy as np
 from sdctrl._progress import progress_bar
 from sdctrl._threads import single_thread
 from sdctrl._util import markdown_table
-from sdctrl._validate import check_int, check_scalar
+from sdctrl._validate import check_executor, check_int, check_scalar
 from sdctrl.fe.validation import check_fe_model
 from sdctrl.updating.fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating.measured import error_level, identify_test, measured_modes, place_test
@@ -175,6 +175,7 @@ class Identifiability:
         -------
         CostMap
         """
+        executor = check_executor(executor)
         idx = {nm: i for i, nm in enumerate(self.names)}
         for nm, label in ((a, "a"), (b, "b")):
             if nm not in idx:

@@ -19,7 +19,7 @@ import numpy as np
 
 from sdctrl._progress import progress_bar
 from sdctrl._util import markdown_table
-from sdctrl._validate import check_band
+from sdctrl._validate import check_band, check_executor
 from sdctrl.fe.eigen import eigensolve
 from sdctrl.fe.parameters import Parameter
 from sdctrl.fe.validation import check_fe_model
@@ -176,6 +176,7 @@ def reanalysis_errors(fe, parameter: Parameter, values, *, n_modes: int = 25,
     True
     """
     check_fe_model(fe, "fe")
+    executor = check_executor(executor)
     if not isinstance(parameter, Parameter):
         raise TypeError(f"parameter must be an sdctrl.Parameter, got {type(parameter).__name__}")
     if parameter.N != fe.N:
