@@ -26,7 +26,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [os.path.join(HERE, ".."), os.path.join(HERE, "..", "tests")]
 
 import sdctrl as sd
-from sdctrl._threads import single_thread
+from sdctrl._lib.threads import single_thread
 
 
 def main() -> None:

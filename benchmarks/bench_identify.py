@@ -52,7 +52,7 @@ sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 import sdctrl as sd
-from sdctrl.identification.complex_modes import frf_array
+from sdctrl.identification._complex_modes import frf_array
 
 warnings.simplefilter("ignore")
 
@@ -120,7 +120,7 @@ def ten_mode_case(n_act, noise=0.01):
 
 
 def testbed_case(n=1500):
-    from sdctrl import testbeds as tb
+    from sdctrl.testbeds import _truss as tb
 
     frf = sd.testbed_frf(n=n, noise=0.01, seed=0)
     lam = np.asarray(tb._modal().poles)

@@ -1,4 +1,4 @@
-"""Benchmark: our D-G mixed-mu upper bound (``sdctrl.mu.dg_upper``: BFGS on the certified
+"""Benchmark: our D-G mixed-mu upper bound (``sdctrl.robust.mu._upper.dg_upper``: BFGS on the certified
 eigenvalue) against SLICOT's ``ab13md`` (Fan-Tits-Doyle), timed in the same run, on the
 structures AB13MD accepts: 1x1 real blocks, complex scalars, full complex blocks.
 
@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from sdctrl.mu import BlockStructure, Factored, dg_upper
+from sdctrl.robust.mu._upper import BlockStructure, Factored, dg_upper
 
 
 def structures(n):

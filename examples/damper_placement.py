@@ -25,9 +25,9 @@ import numpy as np
 import scipy.sparse as sp
 
 import sdctrl as sd
-from sdctrl.closedloop import feedback, rms, strut_controller, strut_plant
-from sdctrl.placement import placement_study
-from sdctrl.testbeds import SENSORS, SHAKERS, TESTBED_BAND
+from sdctrl.closedloop._loops import feedback, rms, strut_controller, strut_plant
+from sdctrl.closedloop._placement import placement_study
+from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND
 from sdctrl.testing import record_rms
 
 BAND = TESTBED_BAND                      # 8-60 Hz

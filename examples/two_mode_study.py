@@ -10,9 +10,9 @@ import sys
 import numpy as np
 from scipy.optimize import least_squares
 
-from sdctrl.frf import ss_frf
-from sdctrl.modal import NormalModeModel
-from sdctrl.uncertainty import psd_gamma_bound, uncertain
+from sdctrl.data._frf import ss_frf
+from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.robust._uncertainty import psd_gamma_bound, uncertain
 
 C = np.array([[1.0, 1.0], [2.0, -1.0], [-2.0, 0.0]])
 B = np.array([[1.0], [1.0]])

@@ -15,41 +15,45 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # public name -> module that defines it
 _EXPORTS = {
-    # data
-    "FRF": "sdctrl.frf",
-    "estimate_frf": "sdctrl.frf",
-    "read_uff": "sdctrl.io",
-    "write_uff": "sdctrl.io",
-    "save_npz": "sdctrl.io",
-    "load_npz": "sdctrl.io",
+    # measured data
+    "FRF": "sdctrl.data",
+    "estimate_frf": "sdctrl.data",
+    "read_uff": "sdctrl.data",
+    "write_uff": "sdctrl.data",
     # identification (chapter III)
     "ComplexModeModel": "sdctrl.identification",
     "initial_poles": "sdctrl.identification",
     "identify": "sdctrl.identification",
     "normal_modes": "sdctrl.identification",
-    # modal models
+    # normal-mode models (2.15)
     "NormalModeModel": "sdctrl.modal",
-    # finite elements
+    # finite elements and the built-in structures
     "FEModel": "sdctrl.fe",
+    "Parameter": "sdctrl.fe",
     "testbed": "sdctrl.testbeds",
     "testbed_frf": "sdctrl.testbeds",
-    "hybrid": "sdctrl.hybridmodel",
     # FE model update (chapter IV)
-    "Parameter": "sdctrl.fe.parameters",
     "update": "sdctrl.updating",
     "UpdateResult": "sdctrl.updating",
     "identifiability": "sdctrl.updating",
     "Identifiability": "sdctrl.updating",
-    # uncertainty and closed loop
-    "UncertainModel": "sdctrl.uncertainty",
+    # hybrid models (5.1)
+    "hybrid": "sdctrl.hybrids",
+    "HybridModel": "sdctrl.hybrids",
+    # uncertainty and robustness (5.2, 5.5)
+    "UncertainModel": "sdctrl.robust",
     "robust_stability": "sdctrl.robust",
-    "rms": "sdctrl.closedloop",
     "RobustResult": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",
+    # closed loops
+    "feedback": "sdctrl.closedloop",
+    "rms": "sdctrl.closedloop",
+    "placement_study": "sdctrl.closedloop",
+    "PlacementStudy": "sdctrl.closedloop",
     # closing the loop with measured data
     "diagnose": "sdctrl.diagnosis",
     "Diagnosis": "sdctrl.diagnosis",
@@ -62,10 +66,10 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)  # noqa: PLE0605 -- the export table is the single source
 
 
-# submodules reachable as attributes (``sd.plot.bode``) without importing them up front
-_SUBMODULES = ("config", "frf", "io", "modal", "identification", "fe", "testbeds", "hybridmodel",
-               "uncertainty", "robust", "closedloop", "testing", "plot", "report", "updating",
-               "storage", "diagnosis")
+# packages reachable as attributes (``sd.plot.bode``) without importing them up front
+_SUBMODULES = ("config", "data", "identification", "modal", "fe", "updating", "hybrids", "robust",
+               "closedloop", "testbeds", "diagnosis", "storage", "plot", "report", "testing",
+               "demo")
 
 
 def __getattr__(name: str):

@@ -1,5 +1,5 @@
 """The ``sdctrl`` command line: ``demo``, ``identify``, ``diagnose``, ``info`` (arguments
-only; the jobs live in :mod:`sdctrl.story` and :mod:`sdctrl.diagnosis`)."""
+only; the jobs live in :mod:`sdctrl.demo` and :mod:`sdctrl.diagnosis`)."""
 
 from __future__ import annotations
 
@@ -54,8 +54,8 @@ _INFO = "Summarise an FRF file (.uff/.unv or .npz) or a model saved with sdctrl.
 
 
 def _info(path: str) -> int:
-    from sdctrl.frf import FRF
-    from sdctrl.io import read_uff
+    from sdctrl.data._frf import FRF
+    from sdctrl.data import read_uff
     from sdctrl.storage import load
 
     frf = load(path) if path.endswith(".npz") else read_uff(path)
@@ -83,7 +83,7 @@ def _demo_args(sub) -> None:
 
 
 def _demo_run(args) -> int:
-    from sdctrl.story import demo
+    from sdctrl.demo import demo
 
     return demo(args.out, noise=args.noise, seed=args.seed, quiet=args.quiet)
 
@@ -101,7 +101,7 @@ def _identify_args(sub) -> None:
 
 
 def _identify_run(args) -> int:
-    from sdctrl.story import identify_report
+    from sdctrl.demo import identify_report
 
     return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet)
 
@@ -119,7 +119,7 @@ def _diagnose(args) -> int:
     """``sdctrl diagnose``: the effects a saved model lacks against measured FRFs."""
     from sdctrl.diagnosis import diagnose
     from sdctrl.fe import FEModel
-    from sdctrl.io import read_uff
+    from sdctrl.data import read_uff
     from sdctrl.storage import load
 
     model = load(args.model)
@@ -136,7 +136,7 @@ def _diagnose(args) -> int:
         report = d.report(figure=os.path.basename(args.figure))
     with open(args.report, "w", encoding="utf-8") as fh:
         fh.write(report)
-    from sdctrl.story.diagnosing import diagnosis_page
+    from sdctrl.demo._diagnosing import diagnosis_page
 
     page = os.path.splitext(args.report)[0] + ".html"        # the same, one self-contained page
     with open(page, "w", encoding="utf-8") as fh:

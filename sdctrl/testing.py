@@ -14,7 +14,7 @@ In a test suite (the fixture is registered as the pytest plugin ``sdctrl``; with
 entry point add ``pytest_plugins = ["sdctrl.testing"]`` to the root ``conftest.py``)::
 
     def test_loop_rms(rms_snapshot):
-        closed = sdctrl.closedloop.feedback(plant, controller)
+        closed = sdctrl.closedloop._loops.feedback(plant, controller)
         rms_snapshot.check(closed, band=(8, 60), psd=1e-2, rtol=1e-6)
 
 The first run (or ``pytest --sdctrl-update-rms``) writes
@@ -31,7 +31,7 @@ import re
 
 import numpy as np
 
-from sdctrl._validate import as_statespace, check_band, check_scalar
+from sdctrl._lib.validate import as_statespace, check_band, check_scalar
 
 __all__ = ["RMSSnapshot", "assert_rms_matches", "load_snapshot", "record_rms"]
 
@@ -40,7 +40,7 @@ SNAPSHOT_VERSION = 1
 
 
 def _closed(system, controller):
-    from sdctrl.closedloop import feedback
+    from sdctrl.closedloop._loops import feedback
 
     G = as_statespace(system, "system")
     return G if controller is None else feedback(G, controller)
@@ -66,7 +66,7 @@ def record_rms(system, band, psd=1.0, path=None, *, controller=None, name: str |
     path : str or path-like, optional
         Write the snapshot there as JSON (parent directories are created).
     controller : control.StateSpace, optional
-        Closed around ``system`` with :func:`sdctrl.closedloop.feedback` first.
+        Closed around ``system`` with :func:`sdctrl.closedloop._loops.feedback` first.
     name : str, optional
         A name stored in the snapshot.
     note : str, optional
@@ -80,7 +80,7 @@ def record_rms(system, band, psd=1.0, path=None, *, controller=None, name: str |
         ``"inf"``.
     """
     from sdctrl import __version__
-    from sdctrl.closedloop import rms
+    from sdctrl.closedloop._loops import rms
 
     lo, hi = check_band(band, infinite=True)
     G = _closed(system, controller)
@@ -153,7 +153,7 @@ def assert_rms_matches(system, snapshot, rtol: float = 1e-6, *, atol: float = 0.
     atol : float
         Absolute tolerance per output (output units).
     controller : control.StateSpace, optional
-        Closed around ``system`` first (:func:`sdctrl.closedloop.feedback`).
+        Closed around ``system`` first (:func:`sdctrl.closedloop._loops.feedback`).
 
     Returns
     -------
@@ -166,7 +166,7 @@ def assert_rms_matches(system, snapshot, rtol: float = 1e-6, *, atol: float = 0.
         With a per-output table (snapshot, actual, relative difference) when an output
         differs, is missing or is new.
     """
-    from sdctrl.closedloop import rms
+    from sdctrl.closedloop._loops import rms
 
     snap = load_snapshot(snapshot)
     rtol = check_scalar(rtol, "rtol", nonneg=True)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.integrate as si
 
-from sdctrl.closedloop import (
+from sdctrl.closedloop._loops import (
     feedback,
     modal_damping,
     rate_outputs,
@@ -118,7 +118,7 @@ def test_rms_with_critically_damped_correction_modes_takes_the_block_path():
     """Several critically damped (defective) correction modes next to lightly damped modes:
     the block-diagonal path (no matrix logarithm) agrees with quadrature and with the
     matrix-logarithm path, and the closed-form logarithms of the 2x2 blocks are exact."""
-    from sdctrl import _bandint
+    from sdctrl._lib import bandint as _bandint
 
     fe = _truss()
     nm = fe.normal_mode_model(["N17.y", "N11.z"], ["N17.y", "N19.x", "N8.y"], 12, static=True)

@@ -227,8 +227,8 @@ def test_missing_diagnose_is_reported_as_not_available(monkeypatch):
     import io
 
     from sdctrl.report import Document
-    from sdctrl.story import commands
-    from sdctrl.story.runner import StepLog
+    from sdctrl.demo import _commands as commands
+    from sdctrl.demo._runner import StepLog
 
     monkeypatch.delitem(sd._EXPORTS, "diagnose", raising=False)
     monkeypatch.delattr(sd, "diagnose", raising=False)

@@ -23,7 +23,7 @@ import pytest
 import scipy.sparse as sp
 
 import sdctrl as sd
-from sdctrl.testbeds import SENSORS, SHAKERS
+from sdctrl.testbeds._truss import SENSORS, SHAKERS
 
 FE = sd.testbed()
 N_MODES = 28                     # the modes below 5 x the band top (as sd.testbed_frf)

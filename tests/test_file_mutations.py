@@ -1,5 +1,5 @@
 """Mutation suite over the file readers: byte flips, truncations, insertions, deletions and
-overwrites of UFF (binary, ASCII, foreign) and npz files (save_npz, sd.save of models).
+overwrites of UFF (binary, ASCII, foreign) and npz files (an FRF of the former save_npz, sd.save of models).
 
 Every outcome must be a correct read or a ``ValueError``/``OSError``; nothing else escapes and
 nothing hangs (each read runs under a deadline).  "Correct" is as strict as the format allows:
@@ -11,6 +11,7 @@ hypothesis profile; ``SDCTRL_HYPOTHESIS_PROFILE=deep`` runs twenty times more, a
 Run with ``-s`` to print the outcome counts.
 """
 
+import pathlib
 import collections
 import tracemalloc
 import warnings
@@ -67,8 +68,8 @@ def samples(tmp_path_factory):
             s["id2"], s["id4"] = "NONE", "NONE"
         pyuff.UFF(str(d / "uff_foreign")).write_sets(sets, "add")
         out["uff_foreign"] = ((d / "uff_foreign").read_bytes(), sd.read_uff, None, "foreign")
-    path = sd.save_npz(frf, d / "frf")
-    out["npz_frf"] = (open_bytes(path), sd.load_npz, sd.load_npz(path), "exact")
+    path = pathlib.Path(__file__).resolve().parent / "data" / "legacy" / "frf_save_npz.npz"
+    out["npz_frf"] = (open_bytes(path), sd.load, sd.load(path), "exact")
     for name, obj in _models().items():
         path = sd.save(obj, d / name)
         out[name] = (open_bytes(path), sd.load, obj, "exact")

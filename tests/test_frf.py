@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl._statespace import ss_frf
+from sdctrl._lib.statespace import ss_frf
 
 
 def _data(nf=20, ns=3, na=2, seed=0):

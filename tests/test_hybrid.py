@@ -11,11 +11,11 @@ import scipy.sparse as sp
 from test_modal_ops import _chain
 
 import sdctrl as sd
-from sdctrl.hybridmodel import hybrid, pairing_report
-from sdctrl.predictions import HybridModel, modify, strut_feedback, with_io
-from sdctrl.testbeds import SENSORS, SHAKERS
-from sdctrl.updating.costs import logls
-from sdctrl.updating.expansion import expand
+from sdctrl.hybrids._build import hybrid, pairing_report
+from sdctrl.hybrids._predictions import HybridModel, modify, strut_feedback, with_io
+from sdctrl.testbeds._truss import SENSORS, SHAKERS
+from sdctrl.updating._costs import logls
+from sdctrl.hybrids._expansion import expand
 
 IN_BAND = np.arange(6, 18)          # testbed modes 7-18: the 8-60 Hz test band
 FREQ = np.linspace(8.0, 60.0, 250)
@@ -296,8 +296,8 @@ def test_bad_input_names_the_argument(case):
 def test_placement_study_on_the_hybrid_ranks_like_the_true_structure(case, capsys):
     from scipy.stats import spearmanr
 
-    from sdctrl.closedloop import rms
-    from sdctrl.placement import placement_study
+    from sdctrl.closedloop._loops import rms
+    from sdctrl.closedloop._placement import placement_study
 
     h, wrong, true = case["h"], case["wrong"], case["true"]
     truss = [e for e in wrong.elements if max(int(e[0][1:]), int(e[1][1:])) <= 28]
@@ -336,7 +336,7 @@ def test_placement_study_on_the_hybrid_ranks_like_the_true_structure(case, capsy
 
 
 def test_placement_study_bad_input(case):
-    from sdctrl.placement import placement_study
+    from sdctrl.closedloop._placement import placement_study
 
     h, wrong = case["h"], case["wrong"]
     with pytest.raises(TypeError, match="model must be"):

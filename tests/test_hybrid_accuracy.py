@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.closedloop import rms
-from sdctrl.testbeds import SENSORS, SHAKERS
-from sdctrl.updating.costs import logls
+from sdctrl.closedloop._loops import rms
+from sdctrl.testbeds._truss import SENSORS, SHAKERS
+from sdctrl.updating._costs import logls
 
 SH, SE = list(SHAKERS), list(SENSORS)
 FREQ = np.linspace(8.0, 60.0, 300)
@@ -244,7 +244,7 @@ def test_normal_modes_leaves_out_of_band_poles_out_only_when_it_must(bed):
 def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):
     """The two doors to a D-strut on a hybrid (``with_feedback`` and ``strut_plant`` closed
     by ``feedback``) carry the same static correction and give the same closed loop."""
-    from sdctrl.closedloop import feedback, signal_name, strut_controller, strut_plant
+    from sdctrl.closedloop._loops import feedback, signal_name, strut_controller, strut_plant
 
     h, s = bed["h"], bed["s"]
     kp, kv = DSTRUT

@@ -8,11 +8,11 @@ import scipy.sparse as sp
 from test_identify import BAND, F_TRUE, IN_BAND, Z_TRUE, ten_mode
 
 import sdctrl as sd
-from sdctrl.identification.complex_modes import frf_array
-from sdctrl.identification.initial import lscf_candidates
-from sdctrl.identification.lscf import lscf_poles
-from sdctrl.identification.residues import stack
-from sdctrl.identification.scan import ResidualScan
+from sdctrl.identification._complex_modes import frf_array
+from sdctrl.identification._initial import lscf_candidates
+from sdctrl.identification._lscf import lscf_poles
+from sdctrl.identification._residues import stack
+from sdctrl.identification._missed_scan import ResidualScan
 
 matplotlib.use("Agg")
 
@@ -130,7 +130,7 @@ def test_sparse_modes_equal_dense_and_non_pd_mass_refused():
 def test_partial_search_reuses_the_fixed_factorisation_exactly(model):
     """SubProblem factorises only the free poles against the fixed ones' QR: same cost,
     gradient (3.19) and Gauss-Newton matrix as the full problem, to round-off."""
-    from sdctrl.identification.search import PoleProblem, SubProblem
+    from sdctrl.identification._search import PoleProblem, SubProblem
 
     frf, lam, _ = ten_mode(noise=0.01, seed=0, df=0.1)
     d = frf.band(*BAND)
@@ -152,8 +152,8 @@ def test_fft_trial_correlations_equal_the_products(model, k):
     """The scan's correlations of on-grid trial poles (FFT) are the inner products of
     their basis columns (3.15) with the data, to round-off; non-uniform lines are
     detected (the scan then forms the products)."""
-    from sdctrl.identification.correlation import TrialCorrelations, uniform_grid
-    from sdctrl.identification.residues import basis
+    from sdctrl.identification._trial_correlation import TrialCorrelations, uniform_grid
+    from sdctrl.identification._residues import basis
 
     rng = np.random.default_rng(0)
     freq = np.linspace(20, 60, 401)
@@ -175,7 +175,7 @@ def test_one_blas_thread_for_the_whole_call(monkeypatch):
     and the caller's setting is restored."""
     from threadpoolctl import threadpool_info, threadpool_limits
 
-    from sdctrl.identification import fit
+    from sdctrl.identification import _complex_fit as fit
 
     seen = []
 

@@ -9,7 +9,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 import sdctrl as sd
 from sdctrl.identification import IdentificationWarning
-from sdctrl.identification.selection import AutoSelection
+from sdctrl.identification._selection import AutoSelection
 
 
 def _blas_threads():

@@ -8,12 +8,12 @@ import pytest
 from test_identify import BAND, F_TRUE, IN_BAND, Z_TRUE, ten_mode
 
 import sdctrl as sd
-from sdctrl.identification.complex_modes import frf_array
-from sdctrl.identification.noise import NoiseTest
-from sdctrl.identification.residues import stack
-from sdctrl.identification.search import PoleProblem
-from sdctrl.identification.selection import RESOLVED_STD
-from sdctrl.testbeds import TESTBED_BAND
+from sdctrl.identification._complex_modes import frf_array
+from sdctrl.identification._noise import NoiseTest
+from sdctrl.identification._residues import stack
+from sdctrl.identification._search import PoleProblem
+from sdctrl.identification._selection import RESOLVED_STD
+from sdctrl.testbeds._truss import TESTBED_BAND
 
 #: in-band testbed modes (Hz) and the damping of the narrowest, 9.52 Hz (0.2%)
 F_TESTBED = np.array([9.5178, 12.6598, 15.7865, 15.8717, 18.1345, 18.6302, 27.6011, 43.8284,

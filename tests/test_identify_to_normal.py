@@ -8,7 +8,7 @@ import pytest
 from test_normal_modes import _errors, _truth
 
 import sdctrl as sd
-from sdctrl.updating import costs
+from sdctrl.updating import _costs as costs
 
 
 @pytest.mark.parametrize("ns", [12, 6], ids=["more-sensors-than-modes", "as-many-as-modes"])

@@ -116,8 +116,8 @@ def test_uff_bad_arguments(tmp_path):
 
 def test_npz_round_trip(tmp_path):
     frf = _frf()
-    sd.save_npz(frf, tmp_path / "a.npz")
-    back = sd.load_npz(tmp_path / "a.npz")
+    sd.save(frf, tmp_path / "a.npz")
+    back = sd.load(tmp_path / "a.npz")
     for name in ("freq", "H", "coherence"):
         assert np.array_equal(getattr(back, name), getattr(frf, name))
     assert (back.sensors, back.actuators, back.collocated, back.quantity, back.units) == \
@@ -338,7 +338,7 @@ def test_uff_append_after_other_datasets(tmp_path):
 # ------------------------------------------------------------------------------------------
 # paths that are not regular files: refused at once, never blocking
 # ------------------------------------------------------------------------------------------
-_READERS = [sd.read_uff, sd.load_npz, sd.load]
+_READERS = [sd.read_uff, sd.load]
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
@@ -361,7 +361,7 @@ def test_writers_refuse_fifo_targets(tmp_path, deadline):
     os.mkfifo(fifo)
     for write in (lambda: sd.write_uff(_small(), fifo, overwrite=False),
                   lambda: sd.write_uff(_small(), fifo),
-                  lambda: sd.save_npz(_small(), str(fifo) + ".npz") if os.mkfifo(
+                  lambda: sd.save(_small(), str(fifo) + ".npz") if os.mkfifo(
                       str(fifo) + ".npz") is None else None):
         with deadline(5), pytest.raises(ValueError, match="FIFO"):
             write()

@@ -1,10 +1,10 @@
-"""Tests of sdctrl.mu / sdctrl.mu_sweep: D-G upper bounds of mixed mu against SLICOT AB13MD,
+"""Tests of sdctrl.robust.mu._upper / sdctrl.robust.mu._frequency_sweep: D-G upper bounds of mixed mu against SLICOT AB13MD,
 closed forms and brute force; the factored (L K R) path; Hamiltonian-certified intervals."""
 import numpy as np
 import pytest
 
-from sdctrl.mu import BlockStructure, Factored, certify_dg, dg_upper, evaluate
-from sdctrl.mu_sweep import FactoredSystem, cheap_bounds, interval
+from sdctrl.robust.mu._upper import BlockStructure, Factored, certify_dg, dg_upper, evaluate
+from sdctrl.robust.mu._frequency_sweep import FactoredSystem, cheap_bounds, interval
 
 
 def _rand(rng, *shape):

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.identification.proper import proper_modes, scaled_modes
-from sdctrl.updating import costs
+from sdctrl.identification._proper import proper_modes, scaled_modes
+from sdctrl.updating import _costs as costs
 
 FREQ_HZ = np.array([8.0, 13.0, 20.0, 20.5, 27.0, 34.0])   # close pair 20 / 20.5 Hz
 ZETA = np.array([0.01, 0.015, 0.02, 0.008, 0.012, 0.01])

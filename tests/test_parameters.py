@@ -7,7 +7,7 @@ import scipy.sparse as sp
 
 import sdctrl as sd
 from sdctrl.fe import assemble
-from sdctrl.fe.parameters import load_shapes
+from sdctrl.fe._parameters import load_shapes
 
 PLATES = [f"N{k}" for k in (31, 32, 33, 34, 35, 38, 39, 40, 41, 42, 45, 46, 47, 48, 49)]
 

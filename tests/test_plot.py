@@ -21,7 +21,7 @@ import pytest
 
 import sdctrl as sd
 from sdctrl.plot import _figure
-from sdctrl.updating.costs import mac as mac_matrix
+from sdctrl.updating._costs import mac as mac_matrix
 
 
 @pytest.fixture(autouse=True)
@@ -314,7 +314,7 @@ def test_stabilisation_flags_frequency_damping_shape():
 
 def test_stabilisation_diagram_points_and_background(testbed_frf):
     frf = testbed_frf
-    nm = sd.testbeds._modal()
+    nm = sd.testbeds._truss._modal()
     true = nm.poles[(nm.frequency > 8) & (nm.frequency < 60)]
     rng = np.random.default_rng(0)
     orders = [np.concatenate([true[:3 + k], 2 * np.pi * rng.uniform(8, 60, 2) * (-0.05 + 1j)])
@@ -341,7 +341,7 @@ def test_stabilisation_diagram_points_and_background(testbed_frf):
 
 # -------------------------------------------------------------------------- shapes, maps
 def test_mac_heat_map_values_and_labels():
-    nm = sd.testbeds._modal()
+    nm = sd.testbeds._truss._modal()
     fig = sd.plot.mac(nm.cphi[:, 6:12], nm.cphi[:, 6:10], names=("test", "FE"))
     ax = fig.axes[0]
     M = mac_matrix(nm.cphi[:, 6:12], nm.cphi[:, 6:10])
@@ -407,7 +407,7 @@ def test_mode_shapes_on_fe_geometry():
     fig = sd.plot.mode_shapes(fe_t, modes=[6, 7])
     assert len(fig.axes) == 2 and fig.axes[1].get_title() == f"mode 8: {f[7]:.4g} Hz"
     # a model carrying shapes on FE DOFs (FE-derived or hybrid) brings labels and frequencies
-    nm = sd.testbeds._modal()
+    nm = sd.testbeds._truss._modal()
     fig = sd.plot.mode_shapes(fe_t, nm, modes=8)
     assert fig.axes[0].get_title() == f"mode 9: {nm.frequency[8]:.4g} Hz"
     seg = np.array(next(c for c in fig.axes[0].collections if c.get_gid() == "deformed")

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.placement import placement_study
-from sdctrl.robust import robust_stability, worst_case_gain
+from sdctrl.closedloop._placement import placement_study
+from sdctrl.robust._stability import robust_stability, worst_case_gain
 
 
 def _chain_fe():

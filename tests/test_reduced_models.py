@@ -10,7 +10,7 @@ import scipy.linalg as sla
 
 import sdctrl as sd
 from sdctrl.fe import assemble
-from sdctrl.testbeds import SENSORS, SHAKERS
+from sdctrl.testbeds._truss import SENSORS, SHAKERS
 from sdctrl.updating import (
     apply_parameters,
     logls,
@@ -22,7 +22,7 @@ from sdctrl.updating import (
     reduced_basis,
     reduced_model,
 )
-from sdctrl.updating.parametric import modal_frf
+from sdctrl.updating._parametric import modal_frf
 
 LINKS = ["post_AB", "post_C"]
 

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl._util import MAX_ROWS
-from sdctrl.placement import Candidate, PlacementStudy, placement_study
-from sdctrl.predictions import HybridModel
-from sdctrl.robust import RobustResult, robust_stability
-from sdctrl.testbeds import SENSORS, SHAKERS
+from sdctrl._lib.display import MAX_ROWS
+from sdctrl.closedloop._placement import Candidate, PlacementStudy, placement_study
+from sdctrl.hybrids._predictions import HybridModel
+from sdctrl.robust._stability import RobustResult, robust_stability
+from sdctrl.testbeds._truss import SENSORS, SHAKERS
 from sdctrl.testing import RMSSnapshot
-from sdctrl.uncertainty import multi_test_statistics
+from sdctrl.robust._uncertainty import multi_test_statistics
 
 SHORT = 200
 

@@ -1,11 +1,11 @@
-"""Tests of sdctrl.robust: mixed real mu bounds against closed-form / 1-D sweep margins."""
+"""Tests of sdctrl.robust._stability: mixed real mu bounds against closed-form / 1-D sweep margins."""
 import control
 import numpy as np
 import pytest
 
-from sdctrl.modal import NormalModeModel
-from sdctrl.robust import certify_dg, closed_loop_lft, mu_upper, robust_stability, worst_case_gain
-from sdctrl.uncertainty import uncertain
+from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.robust._stability import certify_dg, closed_loop_lft, mu_upper, robust_stability, worst_case_gain
+from sdctrl.robust._uncertainty import uncertain
 
 
 def one_mode(gamma=0.02):
@@ -59,7 +59,7 @@ def test_isolated_frequency_real_mu_caught_by_crossings():
     # without regularisation, real mu on that grid is (almost) zero: the trap
     A, B, C, D = closed_loop_lft(um, K)
     w = 2 * np.pi * f
-    from sdctrl._statespace import ss_frf
+    from sdctrl._lib.statespace import ss_frf
     Ms = ss_frf(A, B, C, D, w)
     raw = max(mu_upper(M, [1], eps=0.0, rtol=0.05)[0] for M in Ms)
     assert raw < 0.5 * (1 / exact)
@@ -160,7 +160,7 @@ def test_multi_block_dynamic_controller_bracket_and_guarantee():
 
 def three_mode_bc():
     """Three modes, every kind of parameter, a dynamic controller with feedthrough (Dc != 0)."""
-    from sdctrl.uncertainty import modal_density_bound, psd_gamma_bound
+    from sdctrl.robust._uncertainty import modal_density_bound, psd_gamma_bound
     rng = np.random.default_rng(3)
     m = NormalModeModel(Omega=np.diag([4.0, 9.0, 25.0]), Gamma=np.diag([0.08, 0.12, 0.2]),
                         cphi=rng.normal(size=(2, 3)), phib=rng.normal(size=(3, 2)),
@@ -217,7 +217,7 @@ def test_worst_case_gain_matches_direct_closure():
     um, K = three_mode_bc()
     f = np.linspace(0.2, 1.0, 50)
     wc = worst_case_gain(um, K, output=1, input=0, freq=f, n_samples=10, seed=3)
-    from sdctrl.frf import ss_frf
+    from sdctrl.data._frf import ss_frf
     d = wc["delta"]
     # disturbance at plant input 0: u = -K y + d, output y1
     G = um.perturbed(d)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl._validate import signal_name, signal_names
-from sdctrl.closedloop import rate_outputs, strut_controller, strut_plant
+from sdctrl._lib.validate import signal_name, signal_names
+from sdctrl.closedloop._loops import rate_outputs, strut_controller, strut_plant
 
 
 def _chain(n=5):

@@ -3,6 +3,8 @@ before any large allocation, paths."""
 
 import io
 import json
+import pathlib
+import shutil
 import os
 import tracemalloc
 import warnings
@@ -16,8 +18,8 @@ from exact import assert_same
 
 import sdctrl as sd
 from sdctrl import storage
-from sdctrl.predictions import HybridModel
-from sdctrl.robust import RobustResult
+from sdctrl.hybrids._predictions import HybridModel
+from sdctrl.robust._stability import RobustResult
 
 
 def round_trip(obj, tmp_path, name="m"):
@@ -131,19 +133,23 @@ def test_unstorable_info_dropped_with_warning_and_bad_types_refused(tmp_path):
     assert "FEModel" in storage.registered() and "UncertainModel" in storage.registered()
 
 
+LEGACY = pathlib.Path(__file__).resolve().parent / "data" / "legacy"
+
+
 def test_load_reads_save_npz_files_and_finds_suffix(tmp_path):
-    frf = sd.FRF([1.0, 2.0], np.ones((2, 1, 1)) * 1j, sensors=["N1.x"], actuators=["N1.x"])
-    assert sd.save_npz(frf, tmp_path / "legacy") == str(tmp_path / "legacy.npz")
-    assert_same(frf, sd.load(tmp_path / "legacy"))
-    assert_same(frf, sd.load_npz(tmp_path / "legacy"))
-    sd.save(frf, tmp_path / "new")
-    with pytest.raises(ValueError, match="not an sdctrl FRF archive"):
-        sd.load_npz(tmp_path / "new.npz")
+    """An FRF written by ``save_npz`` (sdctrl 0.1, checked-in file) loads through sd.load."""
+    ref = np.load(LEGACY / "reference.npz")
+    old = sd.load(LEGACY / "frf_save_npz.npz")
+    assert np.array_equal(old.H[::7, ::5, :], ref["frf_H"])
+    assert_same(old, sd.load(LEGACY / "frf.npz"))
+    shutil.copy(LEGACY / "frf_save_npz.npz", tmp_path / "legacy.npz")
+    assert_same(old, sd.load(tmp_path / "legacy"))
+    assert not hasattr(sd, "save_npz") and not hasattr(sd, "load_npz")
 
 
 def test_missing_directory_fifo_paths(tmp_path):
     missing = tmp_path / "nothing"
-    for reader in (sd.load, sd.load_npz):
+    for reader in (sd.load,):
         with pytest.raises(FileNotFoundError, match="nothing"):
             reader(missing)
         with pytest.raises(ValueError, match="does not exist"):   # also a ValueError
@@ -191,7 +197,7 @@ def _with_meta(members, meta):
 
 
 def _refused(path, match):
-    for reader in (sd.load, sd.load_npz):
+    for reader in (sd.load,):
         with pytest.raises(ValueError, match=match):
             reader(path)
 
@@ -403,3 +409,33 @@ def test_fe_assembly_survives_save_load_and_apply_parameters(testbed_models, tmp
     members[f"{gidx}.npy"] = _npy(np.full((len(fe.assembly.names), 6), 10**6))
     with pytest.raises(ValueError, match="gidx"):
         sd.load(_zip(tmp_path / "bad.npz", _with_meta(members, meta)))
+
+
+def test_files_written_by_sdctrl_0_1_load_with_the_same_numbers():
+    """Models saved by sdctrl 0.1 (flat layout; tests/data/legacy/make_legacy.py) load exactly."""
+    ref = np.load(LEGACY / "reference.npz")
+    cm = sd.load(LEGACY / "complex_modes.npz")
+    assert isinstance(cm, sd.ComplexModeModel)
+    assert np.array_equal(cm.poles, ref["cm_poles"]) and np.array_equal(cm.residues,
+                                                                        ref["cm_residues"])
+    nm = sd.load(LEGACY / "normal_modes.npz")
+    assert type(nm) is sd.NormalModeModel
+    assert np.array_equal(nm.Gamma, ref["nm_Gamma"]) and np.array_equal(nm.cphi, ref["nm_cphi"])
+    hy = sd.load(LEGACY / "hybrid.npz")
+    assert isinstance(hy, sd.HybridModel)
+    assert np.array_equal(hy.Omega, ref["hy_Omega"])
+    assert np.array_equal(hy.shapes[::9, :], ref["hy_shapes"])
+    fe = sd.load(LEGACY / "fe.npz")
+    assert isinstance(fe, sd.FEModel) and np.array_equal(fe.K.diagonal(), ref["fe_K_diag"])
+    res = sd.load(LEGACY / "update_result.npz")
+    assert isinstance(res, sd.UpdateResult)
+    assert np.array_equal([res.values["links"], res.values["plates"], res.cost_after],
+                          ref["res_values"])
+    um = sd.load(LEGACY / "uncertain.npz")
+    assert isinstance(um, sd.UncertainModel) and np.array_equal(um.dGamma, ref["um_dGamma"])
+    ide = sd.load(LEGACY / "identifiability.npz")
+    assert isinstance(ide, sd.Identifiability)
+    assert np.array_equal(ide.correlation, ref["ide_corr"])
+    # the loaded models still work
+    f = np.linspace(14.0, 20.0, 7)
+    assert np.all(np.isfinite(hy.frf(f).H)) and np.all(np.isfinite(cm.frf(f).H))

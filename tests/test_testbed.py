@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-import sdctrl.testbeds as tb
+import sdctrl.testbeds._truss as tb
 
 
 def _doc_table():

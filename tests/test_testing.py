@@ -7,7 +7,7 @@ import control
 import numpy as np
 import pytest
 
-from sdctrl.closedloop import feedback, rms
+from sdctrl.closedloop._loops import feedback, rms
 from sdctrl.testing import assert_rms_matches, load_snapshot, record_rms
 
 pytest_plugins = ["pytester"]
@@ -91,7 +91,7 @@ def test_bad_snapshot_input(tmp_path):
 USER_TEST = '''
 import control
 import numpy as np
-from sdctrl.closedloop import feedback
+from sdctrl.closedloop._loops import feedback
 
 GAIN = {gain}
 

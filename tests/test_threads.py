@@ -16,7 +16,7 @@ def test_identify_runs_when_threadpoolctl_is_missing():
         import sdctrl as sd
         names = [n for n in sd.__all__ if n != "diagnose"] + ["diagnose"]
         [getattr(sd, n) for n in names]              # every public name resolves
-        from sdctrl._threads import single_thread
+        from sdctrl._lib.threads import single_thread
         with single_thread():
             pass
         f = np.linspace(5, 15, 400)

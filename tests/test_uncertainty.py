@@ -1,10 +1,10 @@
-"""Tests of sdctrl.uncertainty: exact LFT (5.5), physical bounds, multi-test statistics (5.2.3)."""
+"""Tests of sdctrl.robust._uncertainty: exact LFT (5.5), physical bounds, multi-test statistics (5.2.3)."""
 import numpy as np
 import pytest
 
-from sdctrl._statespace import ss_frf
-from sdctrl.modal import NormalModeModel
-from sdctrl.uncertainty import (
+from sdctrl._lib.statespace import ss_frf
+from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.robust._uncertainty import (
     default_bounds,
     modal_density_bound,
     multi_test_statistics,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl import closedloop
+from sdctrl.closedloop import _loops as closedloop
 
 
 def _nm(E=True):

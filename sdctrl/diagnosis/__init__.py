@@ -15,8 +15,8 @@ corrected model -> error before/after").
 - result.py: :class:`Effect` and :class:`Diagnosis`; loop.py: :func:`diagnose`.
 """
 
-from sdctrl.diagnosis.apply import DelayedModel
-from sdctrl.diagnosis.loop import diagnose
-from sdctrl.diagnosis.result import KINDS, Diagnosis, Effect
+from sdctrl.diagnosis._apply import DelayedModel
+from sdctrl.diagnosis._loop import diagnose
+from sdctrl.diagnosis._result import KINDS, Diagnosis, Effect
 
 __all__ = ["KINDS", "DelayedModel", "Diagnosis", "Effect", "diagnose"]

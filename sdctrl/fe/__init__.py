@@ -7,13 +7,14 @@ element groups, and design parameters (parameters.py: :class:`Parameter`, 4.15) 
 them (groups.py: ``FEModel.stiffness_parameter``, ``FEModel.mass_parameter``).
 """
 
-from sdctrl.fe.assembly import DIRECTIONS, assemble, assemble_coo
-from sdctrl.fe.eigen import DENSE_MAX, RIGID_RTOL
-from sdctrl.fe.elements import bar_matrices, beam_axes, beam_matrices
-from sdctrl.fe.groups import Assembly
-from sdctrl.fe.model import FEModel
-from sdctrl.fe.parameters import Parameter, load_shapes
-from sdctrl.fe.static import principal_static_modes
+from sdctrl.fe._assembly import assemble
+from sdctrl.fe._elements import DIRECTIONS, assemble_coo
+from sdctrl.fe._eigen import DENSE_MAX, RIGID_RTOL
+from sdctrl.fe._elements import bar_matrices, beam_axes, beam_matrices
+from sdctrl.fe._groups import Assembly
+from sdctrl.fe._fe_model import FEModel
+from sdctrl.fe._parameters import Parameter, load_shapes
+from sdctrl.fe._static import principal_static_modes
 
 __all__ = [
     "DENSE_MAX",

@@ -16,11 +16,11 @@ from __future__ import annotations
 import importlib
 
 _EXPORTS = {
-    "initial_poles": "sdctrl.identification.poles",
-    "identify": "sdctrl.identification.fit",
-    "IdentificationWarning": "sdctrl.identification.fit",
-    "ComplexModeModel": "sdctrl.identification.complex_modes",
-    "normal_modes": "sdctrl.identification.proper",
+    "initial_poles": "sdctrl.identification._peaks",
+    "identify": "sdctrl.identification._complex_fit",
+    "IdentificationWarning": "sdctrl.identification._complex_fit",
+    "ComplexModeModel": "sdctrl.identification._complex_modes",
+    "normal_modes": "sdctrl.identification._proper",
 }
 
 __all__ = ["ComplexModeModel", "IdentificationWarning", "identify", "initial_poles",

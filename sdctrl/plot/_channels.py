@@ -13,8 +13,8 @@ import warnings
 
 import numpy as np
 
-from sdctrl._validate import check_freq, check_quantity, signal_name
-from sdctrl.frf import FRF
+from sdctrl._lib.validate import check_freq, check_quantity, signal_name
+from sdctrl.data._frf import FRF
 
 #: channels shown by default when the data has no collocated pair
 MAX_DEFAULT_CHANNELS = 12

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sdctrl._util import markdown_table
-from sdctrl.report.markup import CSS, html_table, inline, markdown_to_html, nest_headings
+from sdctrl._lib.display import markdown_table
+from sdctrl.report._markup import CSS, html_table, inline, markdown_to_html, nest_headings
 
 __all__ = ["Check", "Document", "Section", "markdown_table", "markdown_to_html", "modes_table"]
 

@@ -2,7 +2,7 @@
 
 One ``.npz`` file holds plain arrays and one JSON document (member ``__sdctrl__``, UTF-8 bytes)
 that names the type, the format version and every field; nothing is pickled and loading never
-executes code (``allow_pickle=False``, readers in :mod:`sdctrl._npz`).  A round trip is exact:
+executes code (``allow_pickle=False``, readers in :mod:`sdctrl._lib.npzfile`).  A round trip is exact:
 arrays bit for bit with their dtypes, labels, tuples, floats (``nan``/``inf`` included) and the
 ``info`` dicts.
 
@@ -26,11 +26,11 @@ function giving its fields and a function building it from them (validating them
 constructor does), and the dtype kinds allowed for its array fields.  A new result type registers
 itself with one call, usually::
 
-    register_attrs("RobustResult", "sdctrl.robust:RobustResult",
+    register_attrs("RobustResult", "sdctrl.robust._stability:RobustResult",
                    kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)
 
 (fields read from the dataclass; ``build``, or else the constructor, validates them: see
-:mod:`sdctrl.storage.builtin` and, for the results of FE updating, :mod:`sdctrl.storage.results`)
+:mod:`sdctrl.storage._builtin` and, for the results of FE updating, :mod:`sdctrl.storage._update_codecs`)
 or, for full control,
 ``register(Codec(name, cls, to_fields, from_fields, kinds))``.  Names are never reused for another
 type: files written today must load tomorrow.
@@ -39,9 +39,10 @@ type: files written today must load tomorrow.
 from __future__ import annotations
 
 # importing builtin and results registers the built-in types and those of FE updating
-from sdctrl.storage import builtin, results  # noqa: F401
-from sdctrl.storage.archive import FORMAT_VERSION, StorageWarning, load, save
-from sdctrl.storage.registry import Codec, register, register_attrs, registered
+from sdctrl.storage import _builtin as builtin
+from sdctrl.storage import _update_codecs as results
+from sdctrl.storage._archive import FORMAT_VERSION, StorageWarning, load, save
+from sdctrl.storage._registry import Codec, register, register_attrs, registered
 
 __all__ = ["FORMAT_VERSION", "Codec", "StorageWarning", "load", "register", "register_attrs",
            "registered", "save"]

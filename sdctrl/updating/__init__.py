@@ -14,20 +14,20 @@
 Parameters (4.15) are :class:`sdctrl.Parameter` objects (defined with the FE models).
 """
 
-from sdctrl.fe.parameters import Parameter
-from sdctrl.updating.basis import ReducedBasis, reduced_basis
-from sdctrl.updating.correlation import (
+from sdctrl.fe._parameters import Parameter
+from sdctrl.updating._ritz_basis import ReducedBasis, reduced_basis
+from sdctrl.updating._mode_correlation import (
     frequency_error,
     mixed_orthogonality,
     modal_energies,
     observability_error,
 )
-from sdctrl.updating.costs import comac, logls, mac, quadratic, relative_error
-from sdctrl.updating.fit import UpdateResult, update
-from sdctrl.updating.parametric import ReducedModel, perturbation, reduced_model
-from sdctrl.updating.problem import apply_parameters
-from sdctrl.updating.sensitivity import CostMap, Identifiability, identifiability
-from sdctrl.updating.sweep import ReanalysisErrors, reanalysis_errors
+from sdctrl.updating._costs import comac, logls, mac, quadratic, relative_error
+from sdctrl.updating._update_fit import UpdateResult, update
+from sdctrl.updating._parametric import ReducedModel, perturbation, reduced_model
+from sdctrl.updating._problem import apply_parameters
+from sdctrl.updating._identifiability import CostMap, Identifiability, identifiability
+from sdctrl.updating._reduced_accuracy import ReanalysisErrors, reanalysis_errors
 
 __all__ = ["CostMap", "Identifiability", "Parameter", "ReanalysisErrors", "ReducedBasis",
            "ReducedModel", "UpdateResult", "apply_parameters", "comac", "frequency_error",

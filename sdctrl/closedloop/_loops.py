@@ -1,0 +1,424 @@
+"""Closed loops through python-control and band-limited RMS responses.
+
+- :func:`feedback` closes a user controller around a plant with
+  ``control.interconnect`` so that every signal keeps its name (``control.feedback``
+  drops them), python-control's sign convention ``u = w - K y``;
+- :func:`rate_outputs` and :func:`strut_plant` expose the relative displacement and
+  velocity of a strut, so that a D-strut (5.3) ``F = -kv y' - kp y`` is the static
+  controller :func:`strut_controller`;
+- :func:`rms` is the RMS of each output for independent band-limited white-noise inputs,
+  integrated exactly over the band (closed form, no frequency sampling);
+- :func:`modal_damping` lists the frequencies and damping ratios of the poles in a band.
+
+Frequencies at the surface are in Hz, inside in rad/s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+
+from sdctrl._lib.bandint import band_integral
+from sdctrl._lib.validate import (
+    as_array,
+    as_statespace,
+    check_band,
+    check_finite_result,
+    check_label,
+    check_scalar,
+    signal_name,
+    signal_names,
+)
+
+__all__ = ["feedback", "modal_damping", "rate_outputs", "rms", "strut_controller",
+           "strut_plant"]
+
+
+# ----------------------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------------------
+def _psd(psd, nu: int) -> np.ndarray:
+    S = as_array(psd, "psd", ndim=(0, 1))
+    if S.ndim == 0:
+        S = np.full(nu, float(S))
+    if S.shape != (nu,):
+        raise ValueError(f"psd must be a scalar or one value per input ({nu},), got {S.shape}")
+    if np.any(S < 0):
+        raise ValueError("psd must be non-negative (one-sided PSD, units^2/Hz)")
+    return S
+
+
+def _mats(G):
+    A, B, C, D = (np.asarray(X, float) for X in (G.A, G.B, G.C, G.D))
+    return A, B, C, D
+
+
+def _check_stable(A: np.ndarray, what: str = "sys") -> None:
+    if A.shape[0] == 0:
+        return
+    lam = np.linalg.eigvals(A)
+    scale = max(np.abs(lam).max(), 1.0)
+    if np.any(lam.real >= -1e-13 * scale):
+        worst = lam[np.argmax(lam.real)]
+        raise ValueError(f"{what} must be asymptotically stable for a finite RMS response "
+                         f"(pole {worst:.4g} rad/s); damp rigid-body modes or close the loop "
+                         "first")
+
+
+# ----------------------------------------------------------------------------------------
+# RMS
+# ----------------------------------------------------------------------------------------
+def rms(sys, band, psd=1.0) -> np.ndarray:
+    """RMS of each output for independent band-limited white-noise inputs.
+
+    Every input ``j`` carries white noise of one-sided PSD ``psd_j`` (units^2/Hz) limited
+    to ``band`` (Hz); contributions of the inputs are summed:
+    ``rms_i^2 = sum_j psd_j int_{f1}^{f2} |H_ij(2 pi j f)|^2 df``.
+
+    The integral is evaluated exactly, without sampling frequencies (lightly damped peaks
+    cannot be missed):
+
+    - finite band: closed form (the frequency-limited Gramian, see Notes), evaluated by
+      partial fractions in the eigenbasis of ``A`` (matrix logarithms and a Lyapunov
+      solve when ``A`` is defective or its eigenvectors ill-conditioned);
+    - ``band=(0, inf)``: the usual Lyapunov solution ``A P + P A^T + B S B^T = 0``,
+      ``rms^2 = diag(C P C^T) / 2`` (one-sided PSD: half the H2 norm squared);
+      ``(f1, inf)`` subtracts the finite band ``(0, f1)`` from it.
+
+    Parameters
+    ----------
+    sys : control.StateSpace or model with ``to_statespace()``
+        Continuous-time, asymptotically stable system (models are taken with displacement
+        outputs).
+    band : (float, float)
+        ``(fmin, fmax)`` in Hz, ``0 <= fmin < fmax``; ``fmax`` may be ``numpy.inf``.
+    psd : float or array_like, shape (n_inputs,)
+        One-sided input PSD (units^2/Hz), the same for all inputs or one per input.
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        RMS of each output (output units).
+
+    Raises
+    ------
+    TypeError
+        ``sys`` is not a system.
+    ValueError
+        Discrete-time or unstable system, bad band or psd, or a feedthrough ``D`` with an
+        infinite band (infinite RMS).
+
+    Notes
+    -----
+    With ``R(w) = (j w I - A)^-1`` and ``Q = B S B^T``,
+    ``int_{w1}^{w2} R Q R^H dw = X`` solves ``A X + X A^T = -(L Q + Q L^H)`` where
+    ``L = int_{w1}^{w2} R dw = -j (log(j w2 I - A) - log(j w1 I - A))`` (W. Gawronski and
+    J.-N. Juang, 1990).  The cross terms with ``D`` use ``L`` too and ``D S D^T`` adds
+    ``(w2 - w1) D S D^T``.  Then ``rms^2 = diag(W) / (2 pi)``.
+
+    Examples
+    --------
+    >>> import control, numpy as np
+    >>> G = control.tf([1.0], [1.0, 0.2, 1.0])      # w0 = 1 rad/s, zeta = 0.1
+    >>> full = rms(G, (0, np.inf))[0]
+    >>> bool(np.isclose(full, np.sqrt(1 / (2 * 2 * 0.2))))
+    True
+    """
+    G = as_statespace(sys)
+    lo, hi = check_band(band, infinite=True)
+    A, B, C, D = _mats(G)
+    S = _psd(psd, B.shape[1])
+    _check_stable(A)
+    w1, w2 = 2 * np.pi * lo, 2 * np.pi * hi
+    try:
+        with np.errstate(all="ignore"):
+            return _rms(A, B, C, D, S, w1, w2)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(f"sys: the band integral failed ({exc}); the system is too badly "
+                         "conditioned (scale its states or matrices)") from None
+
+
+def _rms(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
+    """RMS of each output over ``(w1, w2)`` rad/s (``w2`` may be inf); see :func:`rms`."""
+    if np.isinf(w2):
+        if np.any(D[:, S > 0] != 0):
+            raise ValueError("sys has a feedthrough D: white noise over an infinite band gives "
+                             "an infinite RMS; give a finite band")
+        from scipy.linalg import solve_continuous_lyapunov
+
+        if A.shape[0]:
+            P = solve_continuous_lyapunov(A, -(B * S) @ B.T)
+            var = np.pi * np.diag(C @ P @ C.T)              # int_0^inf = pi diag(C P C^T)
+        else:
+            var = np.zeros(C.shape[0])
+        if w1 > 0:
+            var = var - np.real(np.diag(band_integral(A, B, C, D, S, 0.0, w1)))
+    else:
+        var = np.real(np.diag(band_integral(A, B, C, D, S, w1, w2)))
+    var = var / (2 * np.pi)
+    check_finite_result(var, "the RMS", "sys, band or psd")
+    return np.sqrt(np.clip(var, 0.0, None))
+
+
+# ----------------------------------------------------------------------------------------
+# poles in a band
+# ----------------------------------------------------------------------------------------
+def modal_damping(sys, band=None):
+    """Natural frequencies (Hz) and damping ratios of the poles of ``sys`` in ``band``.
+
+    Parameters
+    ----------
+    sys : control.StateSpace or model with ``poles`` / ``to_statespace()``
+        The system.
+    band : (float, float), optional
+        Keep poles whose natural frequency ``|p| / 2 pi`` lies in ``band`` (Hz).
+
+    Returns
+    -------
+    frequency : ndarray
+        ``|p| / 2 pi`` in Hz, increasing (one entry per complex pair, Im p >= 0).
+    damping : ndarray
+        ``-Re p / |p|``.
+    """
+    if hasattr(sys, "poles") and not callable(sys.poles):
+        p = np.asarray(sys.poles)
+    else:
+        p = np.asarray(as_statespace(sys).poles())
+        p = p[p.imag >= -1e-12 * max(np.abs(p).max(initial=0.0), 1.0)]
+    f = np.abs(p) / (2 * np.pi)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.where(np.abs(p) > 0, -p.real / np.abs(p), 1.0)
+    if band is not None:
+        lo, hi = check_band(band, infinite=True)
+        keep = (f >= lo) & (f <= hi)
+        f, z = f[keep], z[keep]
+    order = np.argsort(f)
+    return f[order], z[order]
+
+
+# ----------------------------------------------------------------------------------------
+# closing loops with names kept
+# ----------------------------------------------------------------------------------------
+def _default_names(labels, prefix: str) -> bool:
+    return all(lab == f"{prefix}[{i}]" for i, lab in enumerate(labels))
+
+
+def feedback(plant, controller, sign: float = -1.0, *, control_outputs: bool = False):
+    """Close ``controller`` around ``plant`` with ``control.interconnect``, names kept.
+
+    The controller reads plant outputs and drives plant inputs, matched by signal name:
+    its input names are plant output names, its output names plant input names (a
+    controller with python-control's default names ``u[i]``/``y[i]`` and the plant's full
+    dimensions is matched by position).  Each driven plant input becomes
+    ``u = w + sign * K y`` (default ``sign=-1``: ``u = w - K y``, python-control's
+    negative feedback), where ``w`` is the external input of the same name.
+
+    Parameters
+    ----------
+    plant : control.StateSpace or model with ``to_statespace()``
+        Plant with named inputs and outputs.
+    controller : control.StateSpace or TransferFunction
+        From (some) plant outputs to (some) plant inputs.
+    sign : float
+        Feedback sign, -1 (negative, default) or +1.
+    control_outputs : bool
+        Also output the controller signals, named ``"<input>_ctrl"``.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs: the plant's inputs (external forces ``w``); outputs: the plant's outputs
+        (and controller outputs); states: plant then controller states.
+
+    Raises
+    ------
+    ValueError
+        Controller signals that match no plant signal.
+
+    Examples
+    --------
+    >>> import control
+    >>> P = control.ss([[0, 1], [-1, -0.02]], [[0], [1]], [[1, 0]], 0,
+    ...                inputs=["x_u"], outputs=["x"])          # sdctrl's names
+    >>> K = control.ss([], [], [], [[3.0]], inputs=["x"], outputs=["x_u"])
+    >>> cl = feedback(P, K)
+    >>> cl.input_labels, cl.output_labels
+    (['x_u'], ['x'])
+    """
+    import control
+
+    P = as_statespace(plant, "plant")
+    K = as_statespace(controller, "controller")
+    if check_scalar(sign, "sign") not in (-1.0, 1.0):
+        raise ValueError(f"sign must be -1 or +1, got {sign!r}")
+    pin, pout = list(P.input_labels), list(P.output_labels)
+    kin, kout = list(K.input_labels), list(K.output_labels)
+    if (_default_names(kin, "u") and _default_names(kout, "y") and len(kin) == len(pout)
+            and len(kout) == len(pin)):
+        kin, kout = pout, pin
+    for lab in kin:
+        if lab not in pout:
+            raise ValueError(f"controller input {lab!r} is not a plant output {pout}")
+    for lab in kout:
+        if lab not in pin:
+            raise ValueError(f"controller output {lab!r} is not a plant input {pin}")
+    if len(set(kin)) != len(kin) or len(set(kout)) != len(kout):
+        raise ValueError("controller signal names must be unique")
+    # internal names: plant inputs/outputs may share labels (collocated pairs)
+    ui = [f"u{i}" for i in range(len(pin))]
+    yi = [f"y{i}" for i in range(len(pout))]
+    ki = [f"k{pin.index(lab)}" for lab in kout]
+    wi = [f"w{i}" for i in range(len(pin))]
+    Pn = control.ss(P.A, P.B, P.C, P.D, inputs=ui, outputs=yi, name="plant")
+    Kn = control.ss(K.A, K.B, K.C, K.D, inputs=[f"y{pout.index(lab)}" for lab in kin],
+                    outputs=ki, name="controller")
+    Dsum = np.hstack([np.eye(len(pin)), np.zeros((len(pin), len(kout)))])
+    for j, lab in enumerate(kout):
+        Dsum[pin.index(lab), len(pin) + j] = float(sign)
+    Sum = control.ss(np.zeros((0, 0)), np.zeros((0, Dsum.shape[1])),
+                     np.zeros((len(pin), 0)), Dsum, inputs=wi + ki, outputs=ui, name="sum")
+    outlist, outnames = list(yi), list(pout)
+    if control_outputs:
+        outlist += ki
+        outnames += [f"{lab}_ctrl" for lab in kout]
+    return control.interconnect([Pn, Kn, Sum], inplist=wi, outlist=outlist, inputs=pin,
+                                outputs=outnames, name="closed_loop")
+
+
+def rate_outputs(sys, outputs=None):
+    """Append the time derivative of outputs, ``y' = C A x + C B u`` (named ``<y>_dot``).
+
+    Parameters
+    ----------
+    sys : control.StateSpace or model with ``to_statespace()``
+        The system; the differentiated outputs must have no feedthrough (``D`` row zero).
+    outputs : sequence of str, optional
+        Output names to differentiate; default all.
+
+    Returns
+    -------
+    control.StateSpace
+        Same states and inputs; outputs followed by their rates.
+
+    Raises
+    ------
+    ValueError
+        Unknown output name, or an output with a feedthrough (its rate is not proper).
+    """
+    import control
+
+    G = as_statespace(sys)
+    A, B, C, D = _mats(G)
+    names = list(G.output_labels)
+    if outputs is None:
+        sel = list(range(len(names)))
+    else:
+        outs = _names(outputs, "outputs")
+        sel = []
+        for o in outs:
+            if o not in names:
+                raise ValueError(f"outputs: unknown output {o!r}, expected one of {names}")
+            sel.append(names.index(o))
+    if np.any(D[sel] != 0):
+        raise ValueError("outputs: a differentiated output of sys has a feedthrough D, its "
+                         "rate is not proper")
+    Cs = C[sel]
+    rates = [f"{names[i]}_dot" for i in sel]
+    clash = sorted(set(rates) & (set(names) | set(G.input_labels)))
+    if clash:
+        raise ValueError(f"outputs: the rate name {clash[0]!r} is already a signal of sys")
+    return control.ss(A, B, np.vstack([C, Cs @ A]), np.vstack([D, Cs @ B]),
+                      inputs=list(G.input_labels), outputs=names + rates,
+                      states=list(G.state_labels))
+
+
+def strut_plant(model, b, name: str = "strut"):
+    """StateSpace of ``model`` with a strut channel added: input ``name_u`` (axial force
+    ``b``), outputs ``name`` (relative extension ``b^T q``) and ``name_dot`` (its rate).
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Model with ``shapes`` (hybrid or FE-derived).
+    b : array_like, shape (N,) or (N, 1)
+        Strut input shape on the DOFs of ``model.shapes`` (:meth:`FEModel.strut`).
+    name : str
+        Label of the strut channel (a sensor and an actuator label of the model).
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``model`` 's inputs and ``name_u``, outputs its outputs and ``name``,
+        ``name_dot`` (displacement; ``.`` in ``name`` becomes ``_`` as in every signal name),
+        ready for :func:`feedback` with :func:`strut_controller`.  A hybrid model that
+        carries its FE model (``static_ready``, built by :func:`sdctrl.hybrid`) gets the
+        static correction of the strut first, as in its ``with_feedback``.
+    """
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    if not isinstance(model, NormalModeModel):
+        raise TypeError(f"model must be a NormalModeModel, got {type(model).__name__}")
+    if model.shapes is None:
+        raise ValueError("model has no shapes: strut_plant needs a hybrid or FE-derived model")
+    N = model.shapes.shape[0]
+    bb = as_array(b, "b", ndim=(1, 2))
+    bb = bb.reshape(-1, 1) if bb.ndim == 1 else bb
+    if bb.shape != (N, 1):
+        raise ValueError(f"b must have shape (N={N}, 1), got {bb.shape}")
+    name = check_label(name, "name")
+    if getattr(model, "static_ready", False):
+        # a hybrid model carrying its FE: the strut's static correction, consistent with
+        # its shapes (HybridModel.with_static), as in HybridModel.with_feedback
+        model = model.with_static(bb)
+    taken = {signal_name(lab) for lab in (*model.sensors, *model.actuators)}
+    if signal_name(name) in taken:
+        raise ValueError(f"name {name!r} is already a sensor or actuator label of the model; "
+                         "choose another strut name")
+    changes = {"phib": np.hstack([model.phib, model.shapes.T @ bb]),
+               "cphi": np.vstack([model.cphi, bb.T @ model.shapes]),
+               "actuators": tuple(model.actuators) + (name,),
+               "sensors": tuple(model.sensors) + (name,)}
+    for f in fields(model):
+        if f.name in ("E", "F") and getattr(model, f.name) is not None:
+            X = getattr(model, f.name)
+            changes[f.name] = np.pad(X, ((0, 1), (0, 1)))
+    G = model.replace(**changes).to_statespace("displacement")
+    return rate_outputs(G, [signal_name(name)])
+
+
+def strut_controller(kp=0.0, kv=0.0, name: str = "strut"):
+    """Static D-strut controller ``F = kp y + kv y'`` (closed with negative feedback, 5.3).
+
+    Parameters
+    ----------
+    kp : float
+        Position gain (N/m).
+    kv : float
+        Velocity gain (N s/m).
+    name : str
+        Strut channel label used in :func:`strut_plant`.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``[name, name_dot]`` (the strut plant's outputs), output ``name_u`` (its
+        force input); :func:`feedback` applies ``F = -kp y - kv y'``.
+    """
+    import control
+
+    kp, kv = check_scalar(kp, "kp"), check_scalar(kv, "kv")
+    name = check_label(name, "name")
+    (force,), (extension,) = signal_names([name], [name])
+    return control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[kp, kv]],
+                      inputs=[extension, f"{extension}_dot"], outputs=[force], name="dstrut")
+
+
+def _names(x, name: str) -> list[str]:
+    """One signal name or a sequence of them."""
+    if isinstance(x, str):
+        return [x]
+    if not isinstance(x, list | tuple) or not all(isinstance(v, str) for v in x):
+        raise TypeError(f"{name} must be a signal name or a sequence of names, got "
+                        f"{type(x).__name__} {x!r:.60}")
+    return list(x)

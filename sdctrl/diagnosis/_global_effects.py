@@ -1,0 +1,393 @@
+"""Global candidate effects, fitted to the residual without an FE model.
+
+- ``delay``: the measurement lags by ``tau``, ``H_I = H exp(-j w tau)`` (phase linear in
+  frequency): ``tau`` from the weighted slope of the residual phase, then a bounded 1-D fit;
+- ``residual_flexibility`` / ``residual_mass``: the out-of-band asymptotes (3.7)-(3.9),
+  ``H + E`` and ``H + F / s^2`` with real ``E``, ``F``, for one actuator (location: its label)
+  or all; with an FE model, the FE's own residual flexibility of the actuators with respect
+  to the model's shapes (2.21), scaled by one factor;
+- ``missing_mode`` (free): an extra normal mode ``c b^T / (s^2 + 2 zeta w s + w^2)`` (2.15),
+  ``c`` and ``b`` real; for given ``(w, zeta)`` the residue is the weighted linear
+  least-squares fit of the relative residual (the linearised logLS), made rank one; ``(w,
+  zeta)`` are searched from the peaks of the residual;
+- ``nonproportional_damping``: the coupling terms ``Gamma_ij`` (rad/s) between close modes
+  that a diagonal (proportional) ``Gamma`` lacks (3.3, 5.1.1), by Gauss-Newton on the complex
+  logLS residual, the gradient coming from the model's transfers
+  ``dH / dGamma_ij = -s (X_y,i X_u,j + X_y,j X_u,i)``.
+
+Each fit returns a *proposal*: a plain dict (kind, location, parameters, cost, number of
+parameters ``k``, number of hypotheses ``m`` of its family, and what :mod:`.apply` needs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize, minimize_scalar
+
+from sdctrl.diagnosis._lowrank import Resolvent
+from sdctrl.diagnosis._residual_map import complex_residual, cost
+
+__all__ = ["fit_delay", "fit_free_mode", "fit_nonproportional", "fit_residual_terms",
+           "proposal"]
+
+#: damping ratios tried at each residual peak when searching an extra mode
+ZETA_GRID = (0.001, 0.003, 0.01, 0.03)
+#: residual peaks tried as the frequency of an extra mode
+N_PEAKS = 3
+#: modes closer than this many half-power bandwidths are coupled by non-proportional damping
+COUPLING_BANDWIDTHS = 10.0
+#: Gauss-Newton iterations of the non-proportional damping fit
+GN_STEPS = 6
+
+
+def proposal(kind, location, parameters, cost_, k, m, action, payload) -> dict:
+    """A fitted candidate effect (plain data, picklable).
+
+    Parameters
+    ----------
+    kind : str
+        One of the eight effect kinds.
+    location : object
+        What it applies to (labels, a frequency) or None.
+    parameters : dict
+        Fitted sizes (SI units).
+    cost_ : float
+        Cost with the effect.
+    k : int
+        Number of fitted parameters.
+    m : int
+        Number of hypotheses of its family.
+    action : str
+        How :mod:`sdctrl.diagnosis._apply` applies it.
+    payload : dict
+        What it needs.
+
+    Returns
+    -------
+    dict
+    """
+    return {"kind": kind, "location": location, "parameters": dict(parameters),
+            "cost": float(cost_), "k": int(k), "m": int(max(m, 1)), "action": action,
+            "payload": payload}
+
+
+def fit_delay(placed, H) -> dict:
+    """A measurement delay ``exp(-j w tau)`` on every channel.
+
+    Parameters
+    ----------
+    placed : Placed
+        The data.
+    H : ndarray, shape (nf, ns, na)
+        Current prediction.
+
+    Returns
+    -------
+    dict
+        Proposal; ``parameters = {"tau": seconds}``.
+    """
+    w = placed.omega
+    r = complex_residual(H, placed.Hd)
+    # data = H exp(-j w tau): Im Log(H / Hd) = w tau; weighted slope, robust to outliers
+    ph = r.imag
+    wt = 1.0 / (1.0 + (r.real / 0.1) ** 2)
+    tau0 = float(np.sum(wt * w[:, None, None] * ph) / max(np.sum(wt * w[:, None, None] ** 2),
+                                                             1e-300))
+    span = max(abs(tau0), 0.05 / w.max())
+
+    def J(t):
+        return cost(H * np.exp(-1j * w * t)[:, None, None], placed.Hd)
+
+    res = minimize_scalar(J, bounds=(tau0 - span, tau0 + span), method="bounded",
+                          options={"xatol": 1e-6 * span})
+    tau = float(res.x) if res.fun < J(tau0) else tau0
+    return proposal("delay", None, {"tau": tau}, J(tau), 1, 1, "delay", {"tau": tau})
+
+
+def _ls_real(A, e):
+    """Per-channel real least squares ``min sum_l |e_l - x a_l|^2``, a and e (nf, ns, na)."""
+    den = np.sum(np.abs(A) ** 2, axis=0)
+    return np.where(den > 0, np.sum((np.conj(A) * e).real, axis=0) / np.maximum(den, 1e-300),
+                    0.0)
+
+
+def fit_residual_terms(placed, H, fe_flex=None) -> list[dict]:
+    """Residual flexibility (``+E``) and residual mass (``+F/s^2``) terms.
+
+    Parameters
+    ----------
+    placed : Placed
+        The data.
+    H : ndarray, shape (nf, ns, na)
+        Current prediction (displacement/force).
+    fe_flex : ndarray, shape (ns, na), optional
+        The FE's residual flexibility of the actuators at the sensors (w.r.t. the model's
+        shapes); adds one-factor hypotheses per actuator.
+
+    Returns
+    -------
+    list of dict
+    """
+    s = placed.s
+    e = (placed.Hd - H) / H
+    out = []
+    na = H.shape[2]
+    shapes = {"residual_flexibility": np.ones_like(s), "residual_mass": 1.0 / s**2}
+    for kind, phi in shapes.items():
+        A = phi[:, None, None] / H
+        X = _ls_real(A, e)                                     # (ns, na)
+        key = "E" if kind == "residual_flexibility" else "F"
+        cands = [(None, X)] + [(placed.actuators[j], X * (np.arange(na) == j)) for j in
+                               range(na)] if na > 1 else [(None, X)]
+        for loc, Xc in cands:
+            k = int(np.count_nonzero(np.any(Xc != 0, axis=1))) * (na if loc is None else 1)
+            J = cost(H + phi[:, None, None] * Xc, placed.Hd)
+            out.append(proposal(kind, loc, {key: Xc.copy()}, J, max(k, 1), 1 + na,
+                                "residual", {"field": key, "X": Xc}))
+    if fe_flex is not None and np.any(fe_flex):
+        for j in range(na):
+            g = fe_flex[:, j]
+            if not np.any(g):
+                continue
+            a = (g[None, :] / H[:, :, j])
+            alpha = float(np.sum((np.conj(a) * e[:, :, j]).real) / np.sum(np.abs(a) ** 2))
+            Xc = np.zeros_like(fe_flex)
+            Xc[:, j] = alpha * g
+            J = cost(H + Xc[None], placed.Hd)
+            out.append(proposal("residual_flexibility", placed.actuators[j],
+                                {"E": Xc.copy(), "scale": alpha}, J, 1, na, "residual",
+                                {"field": "E", "X": Xc}))
+    return out
+
+
+def _mode_residue(placed, H, e, w, z):
+    """Rank-one real residue of an extra mode at ``(w, zeta)``: (X, proxy cost)."""
+    s = placed.s
+    phi = 1.0 / (s**2 + 2 * z * w * s + w**2)
+    A = phi[:, None, None] / H
+    X = _ls_real(A, e)
+    U, S, Vt = np.linalg.svd(X)
+    X1 = S[0] * np.outer(U[:, 0], Vt[0])
+    return X1, float(np.mean(np.abs(e - A * X1) ** 2)), phi
+
+
+def _peaks(per_line, n):
+    """Indices of the ``n`` largest local maxima (a line per peak)."""
+    e = per_line
+    loc = np.flatnonzero(np.r_[e[0] > e[1], (e[1:-1] >= e[:-2]) & (e[1:-1] >= e[2:]),
+                               e[-1] > e[-2]]) if e.size > 2 else np.arange(e.size)
+    return loc[np.argsort(e[loc])[::-1][:n]]
+
+
+def fit_free_mode(placed, H) -> dict | None:
+    """An extra normal mode with a free real rank-one residue.
+
+    Parameters
+    ----------
+    placed : Placed
+        The data.
+    H : ndarray, shape (nf, ns, na)
+        Current prediction.
+
+    Returns
+    -------
+    dict or None
+        Proposal with ``parameters = {"frequency": Hz, "damping": ratio}``; location the
+        frequency (Hz).
+    """
+    w = placed.omega
+    if w.size < 5:
+        return None
+    e = (placed.Hd - H) / H
+    r = complex_residual(H, placed.Hd)
+    per_line = np.mean(np.abs(r) ** 2, axis=(1, 2))
+    best = None
+    for i in _peaks(per_line, N_PEAKS):
+        for z in ZETA_GRID:
+            _, c, _ = _mode_residue(placed, H, e, w[i], z)
+            if best is None or c < best[0]:
+                best = (c, w[i], z)
+    lo, hi = w[0] * 0.8, w[-1] * 1.2
+
+    def proxy(x):
+        wx, zx = np.exp(x[0]), np.exp(x[1])
+        if not (lo < wx < hi and 1e-5 < zx < 0.5):
+            return np.inf
+        return _mode_residue(placed, H, e, wx, zx)[1]
+
+    res = minimize(proxy, [np.log(best[1]), np.log(best[2])], method="Nelder-Mead",
+                   options={"xatol": 1e-6, "fatol": 1e-12 * max(best[0], 1e-300),
+                            "maxfev": 300})
+    wm, zm = np.exp(res.x)
+    X1, _, phi = _mode_residue(placed, H, e, wm, zm)
+    U, S, Vt = np.linalg.svd(X1)
+    c, b = U[:, 0] * np.sqrt(S[0]), Vt[0] * np.sqrt(S[0])
+    J = cost(H + phi[:, None, None] * np.outer(c, b)[None], placed.Hd)
+    wr, zr, cr, br = _refine_mode(placed, H, wm, zm, c, b, (lo, hi))
+    phr = 1.0 / (placed.s**2 + 2 * zr * wr * placed.s + wr**2)
+    Jr = cost(H + phr[:, None, None] * np.outer(cr, br)[None], placed.Hd)
+    if Jr < J:
+        wm, zm, c, b, J = wr, zr, cr, br, Jr
+    ns, na = X1.shape
+    fr = float(wm / (2 * np.pi))
+    return proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm)}, J,
+                    2 + ns + na - 1, w.size, "mode",
+                    {"omega": float(wm), "zeta": float(zm), "c": c, "b": b})
+
+
+def _mode_normal(s, w, z, c, b, phi, Hm, r):
+    """Gauss-Newton normal equations ``(Re J^H J, Re J^H r)`` of ``r = Log(H + phi c b^T) -
+    Log H_d`` in ``(log w, log zeta, c, b)``, built from its blocks (the ``c`` and ``b``
+    columns of ``J`` are sparse: ``P b_a`` on sensor ``s``, ``P c_s`` on actuator ``a``, with
+    ``P = phi / H``), never forming ``J``."""
+    ns, na = c.size, b.size
+    Q = 1.0 / Hm
+    P = phi[:, None, None] * Q
+    cb = np.outer(c, b)
+    Ju = (-phi**2 * (2 * z * s + 2 * w) * w)[:, None, None] * cb * Q
+    Jv = (-phi**2 * (2 * w * s) * z)[:, None, None] * cb * Q
+    P2 = (P.real**2 + P.imag**2).sum(axis=0)                                # (ns, na)
+    A = np.zeros((2 + ns + na, 2 + ns + na))
+    g = np.zeros(2 + ns + na)
+    for i, Jx in enumerate((Ju, Jv)):
+        for k, Jy in enumerate((Ju, Jv)):
+            A[i, k] = np.sum((np.conj(Jx) * Jy).real)
+        X = (np.conj(Jx) * P).real.sum(axis=0)                              # (ns, na)
+        A[i, 2:2 + ns] = A[2:2 + ns, i] = X @ b
+        A[i, 2 + ns:] = A[2 + ns:, i] = c @ X
+        g[i] = np.sum((np.conj(Jx) * r).real)
+    A[2:2 + ns, 2:2 + ns] = np.diag(P2 @ b**2)
+    A[2 + ns:, 2 + ns:] = np.diag(c**2 @ P2)
+    A[2:2 + ns, 2 + ns:] = P2 * cb
+    A[2 + ns:, 2:2 + ns] = (P2 * cb).T
+    Y = (np.conj(P) * r).real.sum(axis=0)                                   # (ns, na)
+    g[2:2 + ns] = Y @ b
+    g[2 + ns:] = c @ Y
+    return A, g
+
+
+def _refine_mode(placed, H, w, z, c, b, wlim, steps=15, window=True):
+    """Levenberg-Marquardt on the complex logLS of an extra mode, on the lines around it
+    (the linearised fit of :func:`_mode_residue` is poor where the mode is entirely missing,
+    the residual there being large)."""
+    om = placed.omega
+    win = np.abs(om - w) <= max(0.1 * w, 30 * z * w)
+    if np.count_nonzero(win) < 5 or not window:
+        win = np.ones(om.size, bool)
+    s, H_, Hd = placed.s[win], H[win], placed.Hd[win]
+    ns = c.size
+
+    def model(x):
+        wx, zx = np.exp(x[0]), np.exp(x[1])
+        phi = 1.0 / (s**2 + 2 * zx * wx * s + wx**2)
+        Hm = H_ + phi[:, None, None] * np.outer(x[2:2 + ns], x[2 + ns:])[None]
+        return wx, zx, phi, Hm
+
+    x = np.r_[np.log(w), np.log(z), c, b]
+    lb = np.r_[np.log(wlim[0]), np.log(1e-5)]
+    ub = np.r_[np.log(wlim[1]), np.log(0.5)]
+    wx, zx, phi, Hm = model(x)
+    J, mu = cost(Hm, Hd), 1e-3
+    for _ in range(steps):
+        r = complex_residual(Hm, Hd)
+        A, g = _mode_normal(s, wx, zx, x[2:2 + ns], x[2 + ns:], phi, Hm, r)
+        d = np.diag(A) + 1e-12 * max(np.trace(A), 1e-300)
+        for _try in range(6):
+            xt = x - np.linalg.solve(A + mu * np.diag(d), g)
+            xt[:2] = np.clip(xt[:2], lb, ub)
+            t = model(xt)
+            Jt = cost(t[3], Hd)
+            if Jt < J:
+                break
+            mu *= 10.0
+        else:
+            break
+        done = Jt > (1 - 1e-6) * J
+        x, (wx, zx, phi, Hm), J, mu = xt, t, Jt, max(mu / 10.0, 1e-9)
+        if done:
+            break
+    return float(np.exp(x[0])), float(np.exp(x[1])), x[2:2 + ns].copy(), x[2 + ns:].copy()
+
+
+def _coupled_pairs(Omega, Gamma, fmin, fmax):
+    """Mode pairs (i < j), both in the band, closer than COUPLING_BANDWIDTHS half-power
+    bandwidths ``Gamma_jj`` (the pairs that damping coupling can mix; static correction
+    modes far above the band, heavily damped, are left out)."""
+    w = np.sqrt(np.clip(np.diag(Omega), 0, None))
+    g = np.maximum(np.abs(np.diag(Gamma)), 1e-4 * w)
+    inb = (w >= 2 * np.pi * fmin * 0.95) & (w <= 2 * np.pi * fmax * 1.05) & (w > 0)
+    out = []
+    for i in range(w.size):
+        for j in range(i + 1, w.size):
+            if inb[i] and inb[j] and w[i] > 0 and w[j] > 0 and \
+                    abs(w[i] - w[j]) <= COUPLING_BANDWIDTHS * max(g[i], g[j]):
+                out.append((i, j))
+    return out
+
+
+def fit_nonproportional(placed, model, rows, cols) -> dict | None:
+    """Coupling terms ``Gamma_ij`` between close modes, by Gauss-Newton on the complex logLS.
+
+    Parameters
+    ----------
+    placed : Placed
+        The data.
+    model : NormalModeModel
+        Current model (its ``E``/``F`` terms are kept).
+    rows, cols : ndarray of int
+        Model sensors/actuators of the data channels.
+
+    Returns
+    -------
+    dict or None
+        Proposal with ``parameters = {"Gamma_i_j": rad/s}`` (1-based mode numbers).
+    """
+    if np.count_nonzero(model.Omega - np.diag(np.diag(model.Omega))):
+        return None
+    pairs = _coupled_pairs(model.Omega, model.Gamma, placed.freq[0], placed.freq[-1])
+    if not pairs:
+        return None
+    s, Hd = placed.s, placed.Hd
+    C, B = np.asarray(model.cphi)[rows], np.asarray(model.phib)[:, cols]
+    extra = placed.static_part(model)
+    n = model.n
+
+    def response(G):
+        R = Resolvent.of(model.Omega, G)
+        Xy = R.transfer(s, C.T, np.eye(n))                    # (nf, ns, n)
+        Xu = R.transfer(s, np.eye(n), B)                      # (nf, n, na)
+        return Xy @ Xu + extra, Xy, Xu
+
+    G = np.array(model.Gamma, float)
+    H, Xy, Xu = response(G)
+    J0 = J = cost(H, Hd)
+    x = np.zeros(len(pairs))
+    I, K = (np.array(v) for v in zip(*pairs))
+    for _ in range(GN_STEPS):
+        r = complex_residual(H, Hd).reshape(-1)
+        # dH/dGamma_ij / H for every pair at once, (nf, ns, na, p)
+        sH = (-s[:, None, None] / H)[..., None]
+        Jm = (np.einsum("fsp,fpa->fsap", Xy[:, :, I], Xu[:, K, :])
+              + np.einsum("fsp,fpa->fsap", Xy[:, :, K], Xu[:, I, :])) * sH
+        Jm = Jm.reshape(-1, len(pairs))
+        # normal equations: the Jacobian is tall (lines x channels) and narrow
+        JtJ = (Jm.conj().T @ Jm).real
+        JtJ += 1e-12 * np.trace(JtJ) / JtJ.shape[0] * np.eye(JtJ.shape[0])
+        step = np.linalg.lstsq(JtJ, -(Jm.conj().T @ r).real, rcond=None)[0]
+        for _half in range(8):
+            Gt = G.copy()
+            for (i, j), v in zip(pairs, x + step):
+                Gt[i, j] = Gt[j, i] = model.Gamma[i, j] + v
+            Ht, Xyt, Xut = response(Gt)
+            Jt = cost(Ht, Hd)
+            if Jt < J:
+                break
+            step = 0.5 * step
+        else:
+            break
+        x, G, H, Xy, Xu, J = x + step, Gt, Ht, Xyt, Xut, Jt
+        if J > (1 - 1e-4) * J0 and _ == 0:
+            break
+    params = {f"Gamma_{i + 1}_{j + 1}": float(v) for (i, j), v in zip(pairs, x)}
+    return proposal("nonproportional_damping", None, params, J, len(pairs), 1, "gamma",
+                    {"dGamma": G - np.asarray(model.Gamma)})

@@ -1,0 +1,235 @@
+"""Closing the loop with measured data: :func:`diagnose`.
+
+Residual -> candidate effects (each a physical hypothesis with few parameters, fitted to the
+data) -> ranking by the extended BIC (:mod:`.residuals`) -> the best effect added to the model
+-> the same again on the new residual, until no candidate helps enough.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+
+from sdctrl._lib.threads import single_thread
+from sdctrl._lib.validate import check_executor, check_int, check_scalar
+from sdctrl.diagnosis._apply import DelayedModel, apply_effect
+from sdctrl.diagnosis._candidates import candidate_groups
+from sdctrl.diagnosis._global_effects import (
+    fit_delay,
+    fit_free_mode,
+    fit_nonproportional,
+    fit_residual_terms,
+)
+from sdctrl.diagnosis._placed_data import place
+from sdctrl.diagnosis._residual_map import complex_residual, cost, ebic_score, noise_level
+from sdctrl.diagnosis._result import Diagnosis, Effect
+from sdctrl.diagnosis._candidate_scan import physical_proposals, setup
+
+__all__ = ["diagnose"]
+
+#: an effect must explain at least this share of the error above the noise level ...
+MIN_GAIN = 0.05
+#: ... and at least this share of the initial error above the noise level
+MIN_SHARE = 0.01
+#: costs below this are round-off: the model reproduces the data
+ROUNDOFF = 1e-24
+#: at most this many steps, whatever ``max_effects``
+MAX_STEPS = 50
+#: runner-up candidates kept per step
+N_RUNNERS = 8
+
+
+def _check(model, frf, fe, executor, max_effects, noise, reach):
+    from sdctrl.fe import FEModel
+    from sdctrl.data._frf import FRF
+    from sdctrl.identification import ComplexModeModel
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    inner = model.model if isinstance(model, DelayedModel) else model
+    if not isinstance(inner, NormalModeModel | ComplexModeModel):
+        raise TypeError("model must be a NormalModeModel (identified, FE-derived or hybrid), a "
+                        f"ComplexModeModel or a DelayedModel, got {type(model).__name__}")
+    if not isinstance(frf, FRF):
+        raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
+    if fe is not None and not isinstance(fe, FEModel):
+        raise TypeError(f"fe must be an sdctrl.FEModel or None, got {type(fe).__name__}")
+    check_executor(executor)
+    check_int(max_effects, "max_effects", minimum=0)
+    check_scalar(noise, "noise", nonneg=True, optional=True)
+    check_scalar(reach, "reach", positive=True, optional=True, allow_inf=True)
+    physical = fe is not None and isinstance(inner, NormalModeModel)
+    if physical and (inner.shapes is None or fe.nodes is None):
+        warnings.warn("diagnose: physical candidates (dampers, springs, masses, resonators) need "
+                      "a model with shapes on fe's DOFs and fe with node coordinates; build a "
+                      "hybrid model (sd.hybrid) from identified modes", stacklevel=3)
+        physical = False
+    return physical
+
+
+def _fe_flexibility(S, placed, model):
+    """The FE's residual flexibility of the data actuators at the data sensors (w.r.t. the
+    model's shapes), when the model carries none (no ``E``)."""
+    if model.E is not None:
+        return None
+    pos = {int(d): i for i, d in enumerate(S.dof_idx)}
+    out = np.zeros(placed.Hd.shape[1:])
+    for j, lab in enumerate(placed.actuators):
+        i = {lab_: k for k, lab_ in enumerate(S.fe.dofs)}.get(lab)
+        if i is not None and i in pos:
+            out[:, j] = S.static.Fyd[placed.rows, pos[i]]
+    return out if np.any(out) else None
+
+
+def _proposals(inner, placed, H, S, executor, progress):
+    """Every candidate effect fitted to the current residual."""
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    props = [fit_delay(placed, H)]
+    props += fit_residual_terms(placed, H, None if S is None else
+                                _fe_flexibility(S, placed, inner))
+    free = fit_free_mode(placed, H)
+    if free is not None:
+        props.append(free)
+    if isinstance(inner, NormalModeModel):
+        npd = fit_nonproportional(placed, inner, placed.rows, placed.cols)
+        if npd is not None:
+            props.append(npd)
+    if S is not None:
+        mode = None if free is None else (free["payload"]["omega"], free["payload"]["zeta"])
+        props += physical_proposals(S, placed, H, mode, executor, progress)
+    return props
+
+
+def _summary(p) -> dict:
+    return {k: p[k] for k in ("kind", "location", "parameters", "cost", "k", "m", "score")}
+
+
+def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | None = None,
+             max_effects: int = 4, noise: float | None = None,
+             progress: bool | None = None) -> Diagnosis:
+    """Trace the residual between a model and measured FRFs to the effects the model lacks.
+
+    Each step fits every candidate effect to the current residual -- a measurement delay,
+    residual flexibility and mass terms, an extra mode, non-proportional damping and, with
+    an FE model, a dashpot or a stiffness change between any two nodes (every element and
+    every unconnected pair within ``reach``), a mass change at any node and a resonator (a
+    mass on a spring along one axis) at any node translation -- ranks them by their error
+    reduction penalised by their number of parameters and of hypotheses scanned (extended
+    BIC on the complex logLS residual, noise level from its second differences), adds the
+    best to the model and starts again, until no candidate helps enough.  Physical candidates
+    are evaluated by reanalysis (4.17), (5.2): the change is a low-rank feedback on its load
+    shape (4.22), completed by its static correction (4.23), evaluated on all lines at once by
+    a Woodbury update of the model's complex modes; a vectorised screen ranks them all, the
+    best are fitted on all the data.
+
+    Parameters
+    ----------
+    model : NormalModeModel, ComplexModeModel or DelayedModel
+        The model: identified, FE-derived or hybrid.  Physical candidates need ``fe`` and a
+        normal-mode model with ``shapes`` on the FE DOFs (FE-derived or hybrid).  Its
+        sensor/actuator labels must include the data's.
+    frf : FRF
+        Measured FRFs (any quantity).
+    fe : FEModel, optional
+        The FE model the effects are located on (node coordinates for pairs).
+    executor : concurrent.futures.Executor, optional
+        Runs the screen chunks and the fits (a Dask client's executor works); the ranking is
+        identical to the serial one.
+    band : (float, float), optional
+        Band (Hz) of the comparison; default all lines of ``frf``.
+    reach : float, optional
+        Largest distance (m) between two unconnected nodes scanned as a pair; default 1.5
+        times the longest element.
+    max_effects : int
+        At most this many effects are added.
+    noise : float, optional
+        Expected complex logLS cost of the measurement noise alone (e.g. from coherence:
+        ``mean((1 - coh) / (n_averages coh))``); default estimated from the residual's
+        second differences along frequency.
+    progress : bool, optional
+        Progress bars (default: the policy of :mod:`sdctrl.config`).
+
+    Returns
+    -------
+    Diagnosis
+        ``error_before``/``error_after`` (complex logLS cost 3.12), ``effects`` (ranked
+        :class:`Effect` list), ``model`` (the corrected model), ``report()``.
+
+    Raises
+    ------
+    TypeError
+        Wrong types of ``model``, ``frf``, ``fe`` or ``executor``.
+    ValueError
+        Data channels missing from the model, bad options.
+
+    Examples
+    --------
+    >>> import sdctrl as sd
+    >>> fe = sd.testbed()
+    >>> nm = fe.normal_mode_model(list(sd.testbeds.SHAKERS), list(sd.testbeds.SENSORS), 28,
+    ...                           static=True, static_damping="projected")
+    >>> frf = nm.frf(sd.testbed_frf(n=200).freq, "acceleration")
+    >>> sd.diagnose(nm, frf, fe).effects             # the model's own prediction
+    []
+    """
+    physical = _check(model, frf, fe, executor, max_effects, noise, reach)
+    with single_thread():         # small dense kernels: BLAS threads only add contention
+        return _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress,
+                          physical)
+
+
+def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress, physical):
+    """The steps of :func:`diagnose` (arguments checked)."""
+    t0 = time.perf_counter()
+    inner0 = model.model if isinstance(model, DelayedModel) else model
+    placed0 = place(inner0, frf, band)
+    H = placed0.response(model)
+    J0 = J = cost(H, placed0.Hd)
+    sigma2 = float(noise) if noise is not None else noise_level(complex_residual(H, placed0.Hd))
+    cand = candidate_groups(fe, reach) if physical else None
+    N = placed0.n_entries
+    current, effects, steps, times = model, [], [], []
+    for _step in range(min(int(max_effects), MAX_STEPS)):
+        if J <= ROUNDOFF:
+            break
+        ts = time.perf_counter()
+        inner, tau = ((current.model, current.tau) if isinstance(current, DelayedModel)
+                      else (current, 0.0))
+        placed = placed0.undelayed(tau)
+        Hin = placed.response(inner)
+        S = setup(inner, fe, placed, cand) if physical else None
+        props = _proposals(inner, placed, Hin, S, executor, progress)
+        for p in props:
+            p["score"] = ebic_score(J, p["cost"], sigma2, N, p["k"], p["m"])
+        props.sort(key=lambda p: -p["score"])
+        best = props[0]
+        gain = J - best["cost"]
+        ok = (best["score"] > 0 and gain >= MIN_GAIN * max(J - sigma2, 0.0)
+              and gain >= MIN_SHARE * max(J0 - sigma2, 0.0))
+        steps.append({"accepted": bool(ok), "candidates": [_summary(p) for p in
+                                                           props[:N_RUNNERS]]})
+        if not ok:
+            times.append(time.perf_counter() - ts)
+            break
+        new = apply_effect(current, best, placed)
+        H = placed0.response(new)
+        J_new = cost(H, placed0.Hd)
+        times.append(time.perf_counter() - ts)
+        if not J_new < J:
+            warnings.warn(f"diagnose: the corrected model does not reduce the error "
+                          f"({best['kind']} at {best['location']}: {J:.3g} -> {J_new:.3g}); "
+                          "stopping", RuntimeWarning, stacklevel=2)
+            steps[-1]["accepted"] = False
+            break
+        effects.append(Effect(best["kind"], best["location"], best["parameters"], J, J_new))
+        current, J = new, J_new
+        if noise is None:
+            sigma2 = min(sigma2, noise_level(complex_residual(H, placed0.Hd)))
+    info = {"time": time.perf_counter() - t0, "step_times": times, "n_entries": N,
+            "physical": physical, "band": (float(placed0.freq[0]), float(placed0.freq[-1]))}
+    if cand is not None:
+        info["candidates"] = {k: g.size for k, g in cand[1].items()}
+        info["n_elements"] = cand[2]
+    return Diagnosis(current, effects, J0, J, model, placed0.frf, sigma2, steps, info)

@@ -1,0 +1,162 @@
+"""Reduction of FE models to truncated normal-mode models (2.15), optionally completed by
+static correction modes (2.21)-(2.22) made principal (4.24), or by the static feedthrough
+``E`` (2.18).
+
+The retained modes come from :meth:`FEModel.modes`, the correction modes from
+:mod:`sdctrl.fe._static`; damping is modal (``2 zeta_j omega_j``) without ``C`` and the full
+projection ``phi^T C phi`` (non-proportional) with it; appended static modes are critically
+damped (2.20) or carry their projected damping.  :func:`full_frf` is the exact response of
+the full model they approximate (a dense reference).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sdctrl._lib.validate import QUANTITY_POWER, as_array, check_finite_result
+from sdctrl.fe._static import principal_static_basis
+
+__all__ = ["full_frf", "normal_mode_model"]
+
+
+def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
+                      static_damping: str = "critical", sensors=None, actuators=None):
+    """Truncated normal-mode model of ``fe`` for input shapes ``B`` and outputs ``Cm``.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The model.
+    B : ndarray, shape (N, na)
+        Input shapes.
+    Cm : ndarray, shape (ns, N)
+        Output shapes (displacement sensors).
+    n : int
+        Number of retained normal modes.
+    damping : float or array_like, shape (n,)
+        Modal damping ratios (used when the model has no ``C``).
+    static : bool or {"modes", "E"}
+        Static correction as modes (2.22), as the feedthrough ``E`` (2.18), or none.
+    static_damping : {"critical", "projected"}
+        Damping of the appended static modes.
+    sensors, actuators : sequence of str, optional
+        Output and input labels.
+
+    Returns
+    -------
+    NormalModeModel
+        See :meth:`FEModel.normal_mode_model`.
+    """
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    freq, phi = fe.modes(n)
+    n = phi.shape[1]
+    lam = np.clip(np.einsum("ij,ij->j", phi, np.asarray(fe.K @ phi)), 0, None)
+    z = _check_options(fe, n, damping, static, static_damping)
+    Omega = np.diag(lam)
+    E = None
+    phiT = phi
+    info = {"source": "FEModel", "n_modes": n, "n_static": 0, "frequency_hz": freq.copy()}
+    if static in (True, "modes"):
+        V, wc2 = _static_modes(fe, B, phi)
+        if V.shape[1]:
+            phiT = np.hstack([phi, V])
+            Omega = np.diag(np.concatenate([lam, wc2]))
+            info["n_static"] = V.shape[1]
+            info["static_frequency_hz"] = np.sqrt(np.clip(wc2, 0, None)) / (2 * np.pi)
+    elif static == "E":
+        E = Cm @ fe.static_correction(B, phi)
+    Gamma = _damping(fe, phiT, Omega, n, z * 2 * np.sqrt(lam), static_damping)
+    return NormalModeModel(Omega, Gamma, Cm @ phiT, phiT.T @ B, E=E, sensors=sensors,
+                           actuators=actuators, shapes=phiT, dofs=fe.dofs, info=info)
+
+
+def _check_options(fe, n, damping, static, static_damping) -> np.ndarray:
+    """Validated damping ratios (n,) and options of :func:`normal_mode_model`."""
+    z = as_array(damping, "damping", ndim=(0, 1))
+    if z.ndim == 0:
+        z = np.full(n, float(z))
+    if z.shape != (n,) or not np.all(np.isfinite(z)) or np.any(z < 0):
+        raise ValueError(f"damping must be a non-negative ratio or an array of {n} ratios")
+    if static not in (False, True, "modes", "E"):
+        raise ValueError(f"static must be False, True, 'modes' or 'E', got {static!r}")
+    if static_damping not in ("critical", "projected"):
+        raise ValueError("static_damping must be 'critical' or 'projected', got "
+                         f"{static_damping!r}")
+    if static_damping == "projected" and fe.C is None:
+        raise ValueError("static_damping='projected' needs a damping matrix C")
+    return z
+
+
+def _static_modes(fe, B, phi):
+    """Principal static correction modes (2.21), (4.24) of ``B``, diagonalised on their
+    stiffness: ``(V, wc2)``, none when nothing is left to correct."""
+    Ps = fe.static_correction(B, phi)
+    Ps = Ps - phi @ (phi.T @ np.asarray(fe.M @ Ps))    # exact M-orthogonality
+    X = fe.static_response(B)
+    ref = np.einsum("ij,ij->", X, np.asarray(fe.M @ X))
+    if np.einsum("ij,ij->", Ps, np.asarray(fe.M @ Ps)) <= 1e-20 * ref:
+        Ps = Ps[:, :0]          # nothing left to correct (e.g. all modes retained)
+    return principal_static_basis(Ps, fe.M, fe.K)
+
+
+def _damping(fe, phiT, Omega, n, gamma, static_damping):
+    """``Gamma``: ``diag(gamma)`` on the modes without ``C``, the projection ``phi^T C phi``
+    with it; appended static modes critically damped (2.20) unless projected."""
+    nT = phiT.shape[1]
+    if fe.C is None:
+        Gamma = np.zeros((nT, nT))
+        Gamma[:n, :n] = np.diag(gamma)
+    else:
+        Gamma = phiT.T @ np.asarray(fe.C @ phiT)
+        Gamma = 0.5 * (Gamma + Gamma.T)
+    if nT > n and static_damping == "critical":
+        wc = np.sqrt(np.clip(np.diag(Omega)[n:], 0, None))
+        Gamma[n:, n:] = np.diag(2 * wc)                        # critical damping
+    return Gamma
+
+
+def full_frf(fe, f, B, Cm, quantity: str) -> np.ndarray:
+    """Exact FRF array (nf, ns, na) ``c (K - w^2 M + j w C)^-1 b`` of the full model.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The model (at most 4000 DOFs: batched dense solves, cost ``nf N^3``).
+    f : ndarray, shape (nf,)
+        Frequencies in Hz.
+    B : ndarray, shape (N, na)
+        Input shapes.
+    Cm : ndarray, shape (ns, N)
+        Output shapes.
+    quantity : {"displacement", "velocity", "acceleration"}
+        Response quantity.
+
+    Returns
+    -------
+    ndarray, shape (nf, ns, na)
+    """
+    if fe.N > 4000:
+        raise ValueError(f"frf is a dense reference solution; N={fe.N} is too large "
+                         "(use normal_mode_model(...).frf)")
+    dense = (lambda X: X.toarray()) if fe.sparse else np.asarray
+    M, K = dense(fe.M), dense(fe.K)
+    C = np.zeros_like(M) if fe.C is None else dense(fe.C)
+    w = 2 * np.pi * f
+    N = fe.N
+    H = np.empty((f.size, Cm.shape[0], B.shape[1]), complex)
+    chunk = max(1, int(1.5e7 // (N * N)))          # bound the memory of a batch
+    for i in range(0, f.size, chunk):               # batched over frequency lines
+        ww = w[i:i + chunk, None, None]
+        Z = K - ww**2 * M + 1j * ww * C
+        try:
+            X = np.linalg.solve(Z, np.broadcast_to(B.astype(complex),
+                                                   (ww.shape[0],) + B.shape))
+        except np.linalg.LinAlgError:
+            raise ValueError("the dynamic stiffness K - w^2 M + j w C is singular or not "
+                             "finite at some lines of freq: freq (Hz) is out of the range "
+                             "double precision can solve for this model") from None
+        H[i:i + chunk] = Cm @ X
+    H = H * ((1j * w) ** QUANTITY_POWER[quantity])[:, None, None]
+    check_finite_result(H, "the FRF", "freq")
+    return H

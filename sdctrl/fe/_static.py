@@ -1,0 +1,217 @@
+"""Static solutions of FE models: flexibility, static correction modes (2.21), (4.23) and
+principal static modes (4.24).
+
+``K^-1 b`` is computed with one factorisation of ``K`` (sparse when the model is); for a
+free structure (rigid-body modes ``R``) ``K`` is singular and the inertia-relief
+flexibility is used instead: the exact solution of ``[[K, M R], [R^T M, 0]] [x; l] =
+[b; 0]``.  The static correction modes remove the retained modes' static part,
+``phi_C = (K^-1 - sum_j phi_j phi_j^T / omega_j^2) b`` (2.21), (4.23); the principal static
+modes orthonormalise them by the mass-orthogonal SVD (4.24).  :func:`consistent_static_modes`
+builds the same correction against an arbitrary set of shapes (expanded or hybrid shapes,
+which are not modes of the FE model): the static response made mass-orthogonal to them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from sdctrl._lib.validate import as_array
+from sdctrl.fe._eigen import RIGID_RTOL, diagonal_scale
+
+__all__ = ["consistent_static_modes", "principal_static_basis", "principal_static_modes",
+           "static_correction", "static_solver"]
+
+
+def static_solver(K, M, R):
+    """Solver ``rhs (N, k) -> K^-1 rhs`` (inertia relief when there are rigid modes).
+
+    Parameters
+    ----------
+    K, M : ndarray or sparse matrix, shape (N, N)
+        Stiffness and mass.
+    R : ndarray, shape (N, r)
+        Mass-normalised rigid-body modes (r = 0 for a fixed structure).
+
+    Returns
+    -------
+    callable
+        Factorised once; sparse when ``K`` is.
+    """
+    N, r = K.shape[0], R.shape[1]
+    sparse = sp.issparse(K)
+    if r == 0:
+        if sparse:
+            return spla.splu(K.tocsc()).solve
+        try:
+            fac = sla.cho_factor(np.asarray(K))
+            return lambda rhs: sla.cho_solve(fac, rhs)
+        except np.linalg.LinAlgError:
+            fac = sla.lu_factor(np.asarray(K))
+            return lambda rhs: sla.lu_solve(fac, rhs)
+    # inertia relief: [[K, M R], [R^T M, 0]] [x; l] = [b; 0] gives
+    # K x = (I - M R R^T) b and R^T M x = 0, i.e. x = sum_flexible phi phi^T b / w^2
+    MR = np.asarray(M @ R)
+    if sparse:
+        A = sp.bmat([[K, sp.csr_matrix(MR)], [sp.csr_matrix(MR.T), None]]).tocsc()
+        full = spla.splu(A).solve
+    else:
+        A = np.block([[np.asarray(K), MR], [MR.T, np.zeros((r, r))]])
+        fac = sla.lu_factor(A)
+        full = lambda rhs: sla.lu_solve(fac, rhs)
+
+    def solve(rhs):
+        rhs = np.vstack([rhs, np.zeros((r, rhs.shape[1]))])
+        return full(rhs)[:N]
+    return solve
+
+
+def static_correction(fe, B: np.ndarray, phi) -> np.ndarray:
+    """Static correction modes (2.21) of input shapes ``B`` for the retained modes ``phi``.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The model (its ``static_response`` gives ``K^-1 B``).
+    B : ndarray, shape (N, k)
+        Input shapes.
+    phi : array_like, shape (N, m)
+        Retained mass-normalised modes; rigid-body modes among them are skipped.
+
+    Returns
+    -------
+    ndarray, shape (N, k)
+    """
+    P = as_array(phi, "phi", ndim=(1, 2))
+    if P.ndim == 1:
+        P = P[:, None]
+    if P.shape[0] != fe.N:
+        raise ValueError(f"phi must have shape (N={fe.N}, m), got {P.shape}")
+    mu = np.einsum("ij,ij->j", P, np.asarray(fe.M @ P))
+    if np.any(np.abs(mu - 1) > 1e-6):
+        raise ValueError("phi must be mass-normalised (phi^T M phi = I), got diagonal "
+                         f"entries in [{mu.min():.6g}, {mu.max():.6g}]")
+    X = fe.static_response(B)
+    lam = np.einsum("ij,ij->j", P, np.asarray(fe.K @ P))
+    flex = lam > RIGID_RTOL * diagonal_scale(fe.K, fe.M)[1]
+    Pf = P[:, flex]
+    return X - Pf @ ((Pf.T @ B) / lam[flex][:, None])
+
+
+def principal_static_modes(phi_s, M, rtol: float = 1e-8, atol: float = 0.0) -> np.ndarray:
+    """Principal static modes by the mass-orthogonal SVD, eq. (4.24).
+
+    The eigenvalues ``Sigma_s`` and eigenvectors ``Psi_s`` of ``phi_s^T M phi_s`` give
+    ``phi_sp = phi_s Psi_s Sigma_s^{-1/2}``; only directions with
+    ``Sigma_s > rtol * max(Sigma_s)`` are kept (largest first), which avoids the
+    conditioning problems of a Schmidt orthogonalisation.
+
+    Parameters
+    ----------
+    phi_s : array_like, shape (N, k)
+        Static (correction) modes, e.g. from :meth:`FEModel.static_correction`.
+    M : array_like or sparse matrix, shape (N, N)
+        Mass matrix.
+    rtol : float
+        Relative threshold on the mass-orthogonal singular values.
+    atol : float
+        Absolute threshold on them as well (``Sigma_s > atol``): for vectors of unit mass
+        norm, a direction that lost all but ``atol`` of its squared norm to a projection.
+
+    Returns
+    -------
+    ndarray, shape (N, k')
+        Mass-orthonormal basis (``phi_sp^T M phi_sp = I``) of the significant part of
+        ``span(phi_s)``, ``k' <= k``.
+    """
+    P = np.asarray(phi_s, float)
+    if P.ndim == 1:
+        P = P[:, None]
+    S = P.T @ (M @ P)
+    S = 0.5 * (S + S.T)
+    sig, psi = np.linalg.eigh(S)
+    order = np.argsort(sig)[::-1]
+    sig, psi = sig[order], psi[:, order]
+    if sig.size == 0 or sig[0] <= atol or sig[0] <= 0:
+        return np.zeros((P.shape[0], 0))
+    keep = sig > max(rtol * sig[0], atol)
+    return P @ (psi[:, keep] / np.sqrt(sig[keep]))
+
+
+def principal_static_basis(phi_s, M, K):
+    """Principal static modes (4.24) diagonalised on their projected stiffness.
+
+    Parameters
+    ----------
+    phi_s : ndarray, shape (N, k)
+        Static correction modes.
+    M, K : ndarray or sparse matrix, shape (N, N)
+        Mass and stiffness.
+
+    Returns
+    -------
+    V : ndarray, shape (N, k')
+        Mass-orthonormal modes with ``V^T K V = diag(wc2)``.
+    wc2 : ndarray, shape (k',)
+        Their eigenvalues (rad/s)^2, increasing.
+    """
+    V = principal_static_modes(phi_s, M)
+    if not V.shape[1]:
+        return V, np.zeros(0)
+    Kc = V.T @ np.asarray(K @ V)
+    wc2, Rc = np.linalg.eigh(0.5 * (Kc + Kc.T))
+    return V @ Rc, wc2
+
+
+def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float = 1e-6):
+    """Static correction modes of loads ``B`` consistent with given shapes (4.23)-(4.24).
+
+    The thesis notes (5.1.2) that the FE static correction mode (2.21), built against the
+    FE modes, does not fit a model whose shapes are expanded: the residual static
+    response must be taken against the shapes actually kept.  Here the FE static response
+    ``K^-1 B`` (4.23) is made mass-orthogonal to ``shapes``,
+    ``psi = K^-1 B - S (S^T M S)^-1 S^T M K^-1 B``, so that the correction adds only what
+    the shapes cannot represent, and orthonormalised by the mass-orthogonal SVD (4.24).
+    Each correction mode's stiffness is its projection ``psi^T K psi`` (a Ritz value, the
+    "projected stiffness" option of 2.22): it depends on the local FE stiffness around the
+    load only, not on the FE modes the shapes replaced.
+
+    Parameters
+    ----------
+    fe : FEModel
+        Gives ``K^-1`` (inertia relief for free structures), ``M`` and ``K``.
+    B : ndarray, shape (N, k)
+        Load shapes (a strut, inputs, the range of a modification).
+    shapes : ndarray, shape (N, n)
+        Shapes already in the model (need not be FE modes); linearly independent.
+    rtol : float
+        Directions whose residual is below ``rtol`` times the static response (in the
+        mass norm) are dropped: the shapes already hold them.
+
+    Returns
+    -------
+    V : ndarray, shape (N, k')
+        Mass-orthonormal correction modes, mass-orthogonal to ``shapes``, ``k' <= k``.
+    wc2 : ndarray, shape (k',)
+        Their ``omega^2`` (rad/s)^2 (``V^T K V`` diagonal), increasing.
+    """
+    M = fe.M
+    X = fe.static_response(B)
+    S = np.asarray(shapes, float)
+    if S.shape[1]:
+        MS = np.asarray(M @ S)
+        X_res = X - S @ np.linalg.solve(S.T @ MS, MS.T @ X)
+    else:
+        X_res = X
+    nx = np.sqrt(np.clip(np.einsum("ij,ij->j", X, np.asarray(M @ X)), 0, None))
+    nr = np.sqrt(np.clip(np.einsum("ij,ij->j", X_res, np.asarray(M @ X_res)), 0, None))
+    keep = nr > rtol * np.maximum(nx, 1e-300)
+    if not np.any(keep):
+        return np.zeros((fe.N, 0)), np.zeros(0)
+    V, wc2 = principal_static_basis(X_res[:, keep], M, fe.K)
+    # principal directions below rtol of the largest are dropped by (4.24); directions
+    # that are (numerically) in span(shapes) go too: they have no stiffness of their own
+    good = wc2 > 0
+    return V[:, good], wc2[good]

@@ -1,0 +1,378 @@
+"""Hybrid experimental/analytical models: construction (thesis 5.1.1, eq. 5.1).
+
+A test identifies, for the modes of its band, the modal frequencies ``Omega``, the
+damping matrix ``Gamma`` and the modal observabilities ``(c phi)_ID`` at the sensors.  An
+FE model gives shapes on all its DOFs, but less accurate frequencies and shapes.  The
+hybrid model (5.1)
+
+``I p'' + Gamma_c p' + Omega_c p = phi_c^T b_c u``, ``y = c_c phi_c p``
+
+keeps the measured ``Omega``/``Gamma`` of the measured modes, uses the measured modes
+*expanded* onto all FE DOFs (4.7), and appends analytic FE modes below and above the test
+band and static correction modes.  Because its shapes live on FE DOFs, the hybrid predicts
+untested sensors/actuators, modifications ``dM, dC, dK`` given on FE DOFs (5.2) and D-strut
+loops (5.3)-(5.4): the :class:`~sdctrl.hybrids._predictions.HybridModel` class and its predictions
+(with the static correction of modifications) are in :mod:`sdctrl.hybrids._predictions`, the
+expansion and pairing in :mod:`sdctrl.hybrids._expansion`, the shapes and residual terms
+in :mod:`sdctrl.hybrids._hybrid_basis`; this module builds the model (5.1.1).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from sdctrl._lib.validate import check_scalar
+from sdctrl.fe._static import consistent_static_modes
+from sdctrl.fe._fe_checks import shapes_on_dofs
+from sdctrl.fe._fe_model import check_fe_model
+from sdctrl.hybrids._hybrid_basis import (
+    build_basis,
+    fe_modes_upto,
+    select_residual,
+    stack_parts,
+    tested_offset,
+)
+from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.hybrids._predictions import HybridModel, pairing_report
+from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
+
+__all__ = ["hybrid", "pairing_report"]
+
+_EXPANSIONS = ("regularised", "paired")
+_RESIDUALS = ("identified", "fe")
+
+
+# ----------------------------------------------------------------------------------------
+# the hybrid model
+# ----------------------------------------------------------------------------------------
+def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
+           static_b=None, mac_min: float = MAC_POOR, expansion: str = "regularised",
+           residual: str = "identified") -> HybridModel:
+    """Hybrid experimental/analytical normal-mode model, eq. (5.1).
+
+    Built from an identified normal-mode model ``nm`` (as returned by
+    :func:`sdctrl.normal_modes` with its default: every identified pole, in-band or not)
+    and an FE model ``fe``:
+
+    - measured modes: the identified ``Omega`` (frequencies) and ``Gamma`` (full damping
+      matrix, non-proportional terms kept), shapes expanded onto all FE DOFs (4.7).  By
+      default (``expansion="regularised"``) the expansion basis holds every FE mode down
+      to a quarter of the lowest paired eigenvalue and up to ``fmax`` plus the static
+      shapes of the test inputs, and the fit is regularised toward the paired FE mode
+      (:func:`~sdctrl.hybrids._expansion.expand_regularised`), its prior spread and noise
+      level chosen per mode by leave-one-sensor-out cross-validation, so that the shapes
+      predict the DOFs without a sensor (untested outputs, modifications) rather than
+      interpolate the identification errors.  At the tested sensors the model keeps the
+      identified observabilities ``(c phi)_ID`` and at the tested inputs the identified
+      ``nm.phib`` (offsets of ``c phi_Ex`` carried like ``E`` below: dropped by
+      :meth:`~sdctrl.hybrids._predictions.HybridModel.with_io`).
+      ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
+      paired FE modes;
+    - out-of-band identified poles (``nm.info["in_band"]`` False) that pair with an FE
+      mode (MAC >= ``mac_min``) are kept as measured modes; the others (poles that absorb
+      what lies beyond the band) are absorbed into the residual terms below
+      (``info["absorbed"]``);
+    - every other FE mode up to ``fmax`` (5.1.1): the low ones (suspension, rigid-body) as
+      FE shapes, the others made mass-orthogonal to the expanded shapes; damping ratio the
+      mean measured one, no damping coupling;
+    - static correction modes (2.21) of the test inputs, made consistent with those
+      shapes (:func:`sdctrl.fe._static.consistent_static_modes`), critically damped (2.20);
+    - residual terms (``residual="identified"``, default): the test's residual flexibility
+      ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
+      over the band -- and the modal masses of the low modes are corrected to the
+      identified residual mass ``F`` (a correction carried, like ``E``, by the low modes'
+      observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
+      the median measured/FE frequency ratio of the paired modes.  Each of these steps is
+      kept only if it brings the model closer to ``nm`` at the tested I/O
+      (:func:`sdctrl.hybrids._hybrid_basis.select_residual`; ``info["residual"]``).  The kept
+      ``E`` is carried by the static correction modes' observabilities (2.22), so that
+      the realisation is exact (``info["residual_flexibility"]``).
+      ``residual="fe"``: the thesis's hybrid, FE frequencies and no residual term;
+    - optionally static correction modes for ``static_b``.
+
+    The model carries its FE model and test I/O (``fe``, ``sensor_c``, ``actuator_b``),
+    so that :meth:`~sdctrl.hybrids._predictions.HybridModel.with_feedback`,
+    :meth:`~sdctrl.hybrids._predictions.HybridModel.with_io` and
+    :meth:`~sdctrl.hybrids._predictions.HybridModel.modify` add the static correction of each
+    modification by default (the key to large stiffness changes, thesis Table 5.2).
+    The outputs are ``y = c_c phi_c p`` with ``c_c = sensor_c`` (5.1).
+
+    Parameters
+    ----------
+    fe : FEModel
+        The analytical model (need not be accurate: its shapes span the expansion).
+    nm : NormalModeModel
+        Identified normal modes (diagonal ``Omega``, rad/s^2; ``Gamma`` rad/s; ``cphi`` at
+        the test sensors; ``E`` and ``F`` residual terms; ``info["band"]`` and
+        ``info["in_band"]`` as :func:`sdctrl.normal_modes` sets them).
+    sensor_c : array_like, shape (ns, N), or sequence of ns DOF labels
+        The test sensors placed on the FE DOFs (rows match ``nm.sensors``).
+    actuator_b : array_like, shape (N, na), or sequence of na DOF labels, optional
+        FE input shapes of the model's inputs (``phib = phi_c^T actuator_b`` for the
+        modes other than the measured ones, which keep the identified ``nm.phib``); by
+        default point forces at ``nm.actuators`` when they are FE DOF labels.
+    fmax : float, optional
+        Highest frequency (Hz) of the FE modes used; default five times the highest
+        measured frequency.
+    static_b : array_like, shape (N, k), optional
+        Input shapes (e.g. a strut, :meth:`FEModel.strut`) for which static correction
+        modes, consistent with the hybrid's shapes, are appended (``kind`` ``"static"``).
+    mac_min : float
+        Pairs with a MAC below this value are reported with a warning (in-band modes) or
+        absorbed (out-of-band poles).
+    expansion : {"regularised", "paired"}
+        Expansion basis and fit, see above.
+    residual : {"identified", "fe"}
+        Residual terms from the test (selected against ``nm``) or the thesis's FE modes.
+
+    Returns
+    -------
+    HybridModel
+        Modes sorted by frequency; ``shapes`` (also ``expanded``) on ``fe.dofs``;
+        ``E`` None unless part of the kept residual flexibility could not be carried by
+        the correction modes;
+        ``info`` holds ``"kind"`` (``"measured"``, ``"fe"``, ``"residual"`` for the static
+        correction of the test inputs, ``"static"`` for ``static_b``, per mode),
+        ``"measured"`` (bool mask), ``"pairing"`` (``test_mode``, ``fe_mode``, ``mac``,
+        ``test_hz``, ``fe_hz`` of the kept measured modes), ``"mac"`` (FE x test MAC),
+        ``"poor_pairs"`` (rows of the pairing with MAC < ``mac_min``), ``"absorbed"``
+        (indices of absorbed ``nm`` modes), ``"expansion"`` (``A``), ``"mean_damping"``,
+        ``"kappa"``, ``"residual"`` (the chosen variant and the scores), ``"n_static"``,
+        ``"residual_flexibility"`` (the kept ``E`` at the test I/O, or None).
+
+    Raises
+    ------
+    TypeError
+        ``fe`` is not an FEModel or ``nm`` not a NormalModeModel.
+    ValueError
+        Inconsistent shapes, unknown DOF labels, non-diagonal ``nm.Omega``, a
+        non-positive ``fmax``, an FE model with fewer modes than ``nm``, unknown
+        ``expansion`` or ``residual``.
+
+    Warns
+    -----
+    UserWarning
+        Poor FE/test pairing of an in-band mode (MAC below ``mac_min``), fewer sensors than
+        measured modes, inputs that cannot be placed on the FE model, or an ``nm`` built
+        from a subset of the identified poles (``normal_modes(cm, modes=...)``: use the
+        default).
+
+    Examples
+    --------
+    >>> import sdctrl as sd
+    >>> from sdctrl.testbeds._truss import SENSORS, SHAKERS
+    >>> fe = sd.testbed()
+    >>> nm = fe.normal_mode_model(list(SHAKERS), list(SENSORS), 18)
+    >>> h = sd.hybrid(fe, nm, list(SENSORS))
+    >>> bool(h.info["pairing"]["mac"].min() > 0.999)
+    True
+    """
+    check_fe_model(fe, "fe")
+    if not isinstance(nm, NormalModeModel):
+        raise TypeError(f"nm must be a NormalModeModel, got {type(nm).__name__}")
+    for name, val, allowed in (("expansion", expansion, _EXPANSIONS),
+                               ("residual", residual, _RESIDUALS)):
+        if val not in allowed:
+            raise ValueError(f"{name} must be one of {allowed}, got {val!r}")
+    c, b = _test_io(fe, nm, sensor_c, actuator_b)
+    w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
+    f_id = np.sqrt(w2_id) / (2 * np.pi)
+    f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
+    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi)
+    kept = ~_absorbed(nm, mac_pairs, mac_min)
+    if c.shape[0] < kept.sum():
+        warnings.warn(f"hybrid: {c.shape[0]} sensors for {kept.sum()} measured modes; the "
+                      "expansion (4.7) needs more sensors than modes to be determined",
+                      stacklevel=2)
+    poor = np.flatnonzero(mac_pairs[kept] < mac_min)
+    km = np.flatnonzero(kept)
+    if poor.size:
+        desc = ", ".join(f"test mode {km[j]} ({f_id[km[j]]:.2f} Hz) ~ FE mode "
+                         f"{fe_idx[km[j]]} ({f_fe[fe_idx[km[j]]]:.2f} Hz), MAC "
+                         f"{mac_pairs[km[j]]:.2f}" for j in poor)
+        warnings.warn(f"hybrid: poor FE/test mode pairing (MAC < {mac_min:g}): {desc}",
+                      stacklevel=2)
+    _warn_left_out(nm)
+    loads, unexcited = _loads(fe, nm, b)
+    if unexcited:
+        warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
+                      "modes are not excited by the model's inputs; give actuator_b",
+                      stacklevel=2)
+    base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
+                       fe_idx[kept], expansion)
+    phib_meas = nm.phib[kept]
+    zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
+    parts, report = select_residual(nm, kept, base, c, phib_meas, loads, zeta_mean, residual)
+    shapes, w2, Gamma, phib, kinds = stack_parts(parts, loads)
+    off = tested_offset(parts, c.shape[0])
+    if static_b is not None:
+        shapes, w2, Gamma, phib, kinds, off = _append_static(fe, static_b, shapes, w2, Gamma,
+                                                             phib, kinds, loads, off)
+    order = np.argsort(w2, kind="stable")
+    shapes, w2, phib, kinds = shapes[:, order], w2[order], phib[order], kinds[order]
+    off = off[:, order]
+    Gamma = Gamma[np.ix_(order, order)]
+    pairing = {"test_mode": km, "fe_mode": fe_idx[kept], "mac": mac_pairs[kept],
+               "test_hz": f_id[kept], "fe_hz": f_fe[fe_idx[kept]]}
+    info = {"source": "hybrid", "kind": kinds, "measured": kinds == "measured",
+            "pairing": pairing, "mac": macs, "poor_pairs": poor,
+            "absorbed": np.flatnonzero(~kept), "expansion": base.A,
+            "mean_damping": zeta_mean, "fe_frequency_hz": f_fe, "kappa": report["kappa"],
+            "residual": report, "n_static": int(np.sum(kinds == "static"))}
+    if "mass_correction" in parts:
+        info["mass_correction"] = parts["mass_correction"]
+    cphi, E = _realise_residual(c @ shapes + off, w2, phib, kinds, parts["E"])
+    info["residual_flexibility"] = parts["E"]
+    return HybridModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=nm.sensors,
+                       actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info, fe=fe,
+                       sensor_c=c, actuator_b=loads)
+
+
+def _realise_residual(cphi, w2, phib, kinds, E):
+    """The kept residual flexibility ``E`` carried by the static correction modes (2.22).
+
+    As the thesis incorporates the asymptotic term in the correction modes (2.22), the
+    observabilities of the static correction modes of the test inputs get ``D`` with
+    ``D diag(1/w^2) phib_r = E``: the model's static response at the tested I/O holds
+    ``E`` exactly, its realisation (:meth:`~NormalModeModel.to_statespace`) is exact for
+    every quantity, and ``E`` is dropped with them when the inputs change
+    (:meth:`HybridModel.with_io`).  What the modes cannot carry (rank) stays in ``E``.
+    """
+    if E is None:
+        return cphi, None
+    r = np.isin(kinds, ("residual", "static")) & (w2 > 0)
+    if not np.any(r):
+        return cphi, E
+    X = phib[r] / w2[r, None]
+    D = E @ np.linalg.pinv(X, rcond=1e-10)
+    left = E - D @ X
+    cphi = np.array(cphi)
+    cphi[:, r] += D
+    tiny = 1e-9 * max(np.abs(E).max(), 1e-300)
+    return cphi, (left if np.abs(left).max() > tiny else None)
+
+
+def _warn_left_out(nm) -> None:
+    """Poles of the identified model left out of ``nm`` (``normal_modes(cm, modes=...)``)."""
+    hz = np.atleast_1d(np.asarray(nm.info.get("poles_left_out_hz", []), float))
+    if hz.size:
+        warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
+                      f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
+                      "band edges is lost and only the FE model stands for them; build nm "
+                      "with sd.normal_modes(cm) (its default, every pole): hybrid keeps the "
+                      "out-of-band modes that pair with the FE and absorbs the others",
+                      stacklevel=3)
+
+
+def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:
+    """Out-of-band identified poles that pair poorly: absorbed into the residual terms."""
+    ib = nm.info.get("in_band")
+    if ib is None or np.shape(ib) != (nm.n,):
+        return np.zeros(nm.n, bool)
+    return ~np.asarray(ib, bool) & (mac_pairs < mac_min)
+
+
+def _loads(fe, nm, b):
+    """Physical test inputs: ``actuator_b``, point forces at ``nm.actuators`` labels, or
+    None, and whether the appended modes stay unexcited."""
+    if b is not None:
+        return b, False
+    if nm.na and set(nm.actuators) <= set(fe.dofs):
+        return fe.point(list(nm.actuators)), False
+    return None, bool(nm.na)
+
+
+def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads, off):
+    """Static correction modes for ``static_b`` consistent with ``shapes``.
+
+    They are diagonalised on the stiffness together with the static correction of the test
+    inputs (one Ritz block, so that the static response to ``static_b`` is exact for an
+    exact FE model); the modes that hold most of the ``static_b`` directions are labelled
+    ``"static"``.
+    """
+    Bs, _ = shapes_on_dofs(static_b, fe.N, fe.dofs, "static_b")
+    res = kinds == "residual"
+    V2, _ = consistent_static_modes(fe, Bs, shapes)
+    k2 = V2.shape[1]
+    if not k2:
+        return shapes, w2, Gamma, phib, kinds, off
+    J = np.hstack([shapes[:, res], V2])                        # mass-orthonormal block
+    Kj = J.T @ np.asarray(fe.K @ J)
+    wc2, U = np.linalg.eigh(0.5 * (Kj + Kj.T))
+    V = J @ U
+    share = np.sum(U[res.sum():] ** 2, axis=0)                 # weight of static_b parts
+    label = np.full(V.shape[1], "residual")
+    label[np.argsort(-share, kind="stable")[:k2]] = "static"
+    keep = ~res
+    n = keep.sum()
+    G = np.zeros((n + V.shape[1],) * 2)
+    G[:n, :n] = Gamma[np.ix_(keep, keep)]
+    G[n:, n:] = np.diag(2 * np.sqrt(np.clip(wc2, 0, None)))
+    pb = np.vstack([phib[keep], V.T @ loads if loads is not None
+                    else np.zeros((V.shape[1], phib.shape[1]))])
+    off = np.hstack([off[:, keep], np.zeros((off.shape[0], V.shape[1]))])
+    return (np.hstack([shapes[:, keep], V]), np.concatenate([w2[keep], wc2]), G, pb,
+            np.concatenate([kinds[keep], label]), off)
+
+
+def _test_io(fe, nm, sensor_c, actuator_b):
+    """Test sensors ``c`` (ns, N) and, when given, actuators ``b`` (N, na) on the FE DOFs."""
+    N = fe.N
+    c, _ = shapes_on_dofs(sensor_c, N, fe.dofs, "sensor_c", output=True)
+    if c.shape[0] != nm.ns:
+        raise ValueError(f"sensor_c must have one row per sensor of nm (ns={nm.ns}), got "
+                         f"{c.shape[0]}")
+    _check_io_scale(c, "sensor_c")
+    b = None
+    if actuator_b is not None:
+        b, _ = shapes_on_dofs(actuator_b, N, fe.dofs, "actuator_b")
+        if b.shape[1] != nm.na:
+            raise ValueError(f"actuator_b must have one column per input of nm (na={nm.na}), "
+                             f"got {b.shape[1]}")
+        _check_io_scale(b.T, "actuator_b")
+    return c, b
+
+
+def _check_io_scale(x, name):
+    """Each sensor (row) or input (column) shape must be non-zero and of a usable scale:
+    the expansion fits ``c phi`` in a scale-free way, but zero, overflowing or subnormal
+    shapes make it meaningless."""
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    nrm = np.linalg.norm(x, axis=1)
+    big = np.abs(x).max() if x.size else 0.0
+    if np.any(nrm == 0) or big > 1e100 or np.any(nrm < 1e-100):
+        raise ValueError(f"{name}: every shape must be non-zero with entries of a usable "
+                         f"scale (norms between 1e-100 and 1e100), got norms in "
+                         f"[{nrm.min() if nrm.size else 0:.3g}, {big:.3g}]")
+
+
+def _measured(nm, fmax, mac_min):
+    """Measured ``omega^2`` (rad/s)^2 of ``nm`` (normal modes), ``fmax`` Hz and ``mac_min``."""
+    Om = nm.Omega
+    if np.abs(Om - np.diag(np.diag(Om))).max() > 1e-8 * max(np.abs(Om).max(), 1e-300):
+        raise ValueError("nm.Omega must be diagonal (normal modes): re-diagonalise with "
+                         "nm.modified() first")
+    w2_id = np.clip(np.diag(Om), 0, None)
+    if nm.n == 0:
+        raise ValueError("nm must hold at least one measured mode")
+    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
+    if fmax is None:
+        fmax = 5.0 * float((np.sqrt(w2_id) / (2 * np.pi)).max())
+    mac_min = check_scalar(mac_min, "mac_min", lo=0.0, hi=1.0)
+    return w2_id, fmax, mac_min
+
+
+def _mean_damping(nm, w_id, kept) -> float:
+    """Mean damping ratio of the kept in-band measured modes, given to the appended FE
+    modes (5.1.1)."""
+    use = kept.copy()
+    ib = nm.info.get("in_band")
+    if ib is not None and np.shape(ib) == (nm.n,) and np.any(use & np.asarray(ib, bool)):
+        use &= np.asarray(ib, bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        zeta = np.diag(nm.Gamma) / (2 * w_id)
+    zeta = zeta[use & (w_id > 0)]
+    return float(np.mean(zeta)) if zeta.size else 0.0

@@ -1,0 +1,95 @@
+"""Data compression for the pole search (thesis 3.2.1, scale).
+
+The stacked data ``Y = [Re H; Im H]`` (2 nf x ns na) only enter the pole search through
+their dominant column space; ``Y`` is compressed once to ``Y V`` with ``V`` a real
+orthonormal basis (exact SVD for small sets, randomised range finder otherwise), so that
+the pole search costs the same for 10 or 10,000 sensors and residues stay real.  The
+final residues are solved on the full data (cost linear in the number of sensors).
+
+Internal module: the functions trust their inputs (validated by ``identify``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sdctrl.identification._residues import stack
+
+__all__ = ["compress", "compressed_data"]
+
+
+def compress(Hm: np.ndarray, rank: int, seed=0, power: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Real orthonormal basis ``V`` (m, r) of the dominant row space of ``Y = [Re H; Im H]``.
+
+    Exact (SVD) when ``m`` is small, otherwise a randomised range finder with ``power``
+    subspace iterations (Halko, Martinsson & Tropp 2011); columns are ordered by
+    decreasing singular value, which are returned too.
+
+    Parameters
+    ----------
+    Hm : ndarray, shape (nf, m)
+        Complex FRF data, one column per sensor/actuator pair.
+    rank : int
+        Rank ``r`` of the basis (capped at ``m`` and ``2 nf``).
+    seed : int, optional
+        Seed of the random test matrix of the range finder.
+    power : int
+        Number of subspace (power) iterations of the range finder.
+
+    Returns
+    -------
+    V : ndarray, shape (m, r)
+        Real orthonormal basis.
+    sv : ndarray, shape (r,)
+        Singular values of ``Y`` along the columns of ``V``, decreasing.
+    """
+    nf, m = Hm.shape
+    rank = int(min(rank, m, 2 * nf))
+    if m <= max(3 * rank, 300):
+        Y = stack(Hm)
+        if 2 * nf >= m:
+            ev, W = np.linalg.eigh(Y.T @ Y)
+            order = np.argsort(ev)[::-1][:rank]
+            return W[:, order], np.sqrt(np.clip(ev[order], 0, None))
+        _, sv, Vt = np.linalg.svd(Y, full_matrices=False)
+        return Vt[:rank].T.copy(), sv[:rank]
+    rng = np.random.default_rng(seed)
+    ell = min(m, rank + 10)
+    Om = rng.standard_normal((nf, ell)) + 1j * rng.standard_normal((nf, ell))
+    Z = (Hm.conj().T @ Om).real                       # Y^T Omega, without stacking Y
+    V, _ = np.linalg.qr(Z)
+    for _ in range(power):
+        W = Hm @ V                                    # Y V as complex (nf, ell)
+        Z = Hm.real.T @ W.real + Hm.imag.T @ W.imag   # Y^T (Y V)
+        V, _ = np.linalg.qr(Z)
+    W = stack(Hm @ V)
+    _, sv, Vt = np.linalg.svd(W, full_matrices=False)
+    return (V @ Vt.T)[:, :rank], sv[:rank]
+
+
+def compressed_data(Hm: np.ndarray, rank: int, seed=0):
+    """Stacked data of the pole search, compressed to ``rank`` columns when it helps.
+
+    Parameters
+    ----------
+    Hm : ndarray, shape (nf, m)
+        Complex FRF data.
+    rank : int
+        Requested rank; ``rank <= 0`` or ``rank >= m`` keeps the full data.
+    seed : int, optional
+        Seed of :func:`compress`.
+
+    Returns
+    -------
+    Y : ndarray, shape (2 nf, r)
+        ``[Re; Im]`` of ``Hm V`` (or of ``Hm``).
+    V : ndarray, shape (m, r), or None
+        The compression basis (None when uncompressed).
+    rank : int
+        The rank used (``m`` when uncompressed).
+    """
+    m = Hm.shape[1]
+    if rank <= 0 or rank >= m:
+        return stack(Hm), None, m
+    V, _sv = compress(Hm, rank, seed)
+    return stack(Hm @ V), V, rank

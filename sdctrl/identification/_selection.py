@@ -1,0 +1,368 @@
+"""Automatic pole selection of :func:`~sdctrl.identify` when no poles are given (3.2.1).
+
+Starting from the initial candidates (:mod:`~sdctrl.identification._initial`: stable
+LSCF poles and peaks of the indicator functions), :class:`AutoSelection` iterates:
+add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification._missed_scan`),
+drop poles that do not converge (pushed to a bound), fit noise (half-power bandwidth below
+a fraction of the line spacing and a damping the data do not determine, 3.56), are in-band
+fillers with very large damping or are not statistically significant
+(:mod:`~sdctrl.identification._noise`), and try out-of-band poles just below and above the
+band (held outside by bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2``
+cannot represent.  Both sides are tried before the first removal of insignificant poles:
+the significance test takes the residual for noise, and the tail of a mode just outside
+the band inflates it over the whole band (a lightly damped mode at the other end of the
+testbed band looked 0.3-0.8 times the threshold, then 280 times once the mode above the
+band was fitted).  A side's trial is repeated whenever
+the in-band pole set has changed since its last trial: on a first fit that still misses
+in-band modes (common with single-reference data, whose indicator functions propose fewer
+candidates), their residual pulls the trial pole to a bound, and the out-of-band mode is
+only found once they are fitted.
+
+Initial candidates far below the noise threshold (noise peaks of the indicator functions)
+are dropped before the first fit, and isolated insignificant poles are removed together,
+so the add/remove loop (at most 20 rounds) stays short.
+
+Internal module: the functions trust their inputs (validated by ``identify``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sdctrl.identification._noise import NoiseTest
+from sdctrl.identification._missed_scan import ResidualScan
+from sdctrl.identification._search import search_poles
+
+__all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
+
+#: evaluations (varpro; iterations / 10 for the gradient optimiser) of a probe of new poles
+PROBE_EVALS = 40
+#: largest standard deviation of ``ln zeta`` of a resolved pole narrower than the line
+#: spacing: its damping is then more than two standard deviations above zero
+RESOLVED_STD = 0.5
+
+
+class AutoSelection:
+    """Add/remove loop of :func:`~sdctrl.identify` when no poles are given (module notes).
+
+    Parameters
+    ----------
+    prob : PoleProblem
+        The pole-search problem.
+    freq : ndarray, shape (nf,)
+        Frequency lines of the band (Hz).
+    fband : (float, float)
+        Band in Hz.
+    optimizer, max_iter, tol
+        Pole search options (:func:`~sdctrl.identification._search.search_poles`).
+    min_bandwidth, zeta_max, significance
+        Rejection rules (see :func:`~sdctrl.identify`).
+    warn : callable
+        ``warn(message)`` reports trouble.
+    shape : ndarray, shape (nf, k), optional
+        Noise shape from the coherence (3.59).
+    """
+
+    def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
+                 significance, warn, shape=None):
+        self.prob, self.freq, self.fband = prob, freq, fband
+        self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
+        self.df = float(np.median(np.diff(freq)))
+        self.min_bw, self.zeta_max = min_bandwidth, zeta_max
+        self.noise = NoiseTest(prob, significance, shape)
+        self.scan = ResidualScan(prob, freq, self.noise)
+        self.log = []
+        self.warn = warn
+        self.tried = []
+        self.best = None
+
+    def fit(self, w, z, side, only=None):
+        """Pole search from ``(w, z)``.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Initial natural frequencies (rad/s) and damping ratios.
+        side : ndarray of int
+            0 in band, -1 below, +1 above.
+        only : array_like of int, optional
+            Poles searched (the others fixed): a probe of new poles, stopped after
+            :data:`PROBE_EVALS` evaluations (noise candidates wander towards a bound and
+            would use the whole budget; they are rejected all the same).
+
+        Returns
+        -------
+        tuple
+            ``(w, z, ev, info)``: the poles, their evaluation and the search info.
+        """
+        max_iter = self.max_iter
+        if only is not None:        # a probe: true modes converge in ~10 evaluations,
+            max_iter = min(max_iter, PROBE_EVALS * (1 if self.optimizer == "varpro" else 10))
+        w, z, info = search_poles(self.prob, w, z, side, self.fband, self.optimizer,
+                                  max_iter, self.tol, only)
+        if only is None and not info.get("converged", True):
+            self.log.append(("not converged", info.get("message", "")))
+        x = np.concatenate([np.log(w), np.log(z)])
+        ev = self.prob.evaluate(x)
+        return w, z, ev, info
+
+    def significance(self, w, z, ev):
+        """Cost increase of removing each pole over its noise threshold (>1 keeps).
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Poles of the fit.
+        ev : dict
+            Their evaluation.
+
+        Returns
+        -------
+        ndarray
+        """
+        return self.noise.significance(w.size, ev)
+
+    def missed(self, w, z, ev, max_add=6):
+        """Missed modes (frequency Hz, damping) in the residual, strongest first.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Poles of the fit.
+        ev : dict
+            Their evaluation.
+        max_add : int
+            Maximum number of candidates.
+
+        Returns
+        -------
+        list of (float, float)
+        """
+        return self.scan.candidates(ev, self.tried, max_add)
+
+    def prune(self, w, z, side, ev, info, weak: bool = True):
+        """Poles without the rejected or the insignificant ones, or None if all stay.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Poles of the fit.
+        side : ndarray of int
+            0 in band, -1 below, +1 above.
+        ev : dict
+            Their evaluation.
+        info : dict
+            The search info (``"at_bound"``).
+        weak : bool
+            Also remove insignificant poles (else only the rejected ones).
+
+        Returns
+        -------
+        tuple or None
+            ``(w, z, side)`` of the poles kept.
+        """
+        f = w / (2 * np.pi)
+        reasons = self._rejected(w, z, side, info, ev)
+        if not reasons and weak:
+            sig = self.significance(w, z, ev)
+            weak = np.flatnonzero(sig < 1.0)
+            if weak.size:
+                # the weakest, and with it every clearly insignificant pole with no other
+                # pole nearby (two poles sharing one mode each look insignificant)
+                isolated = [j for j in weak if sig[j] < 0.5 and not np.any(
+                    (np.arange(w.size) != j)
+                    & (np.abs(f - f[j]) < max(10 * self.df, 10 * z[j] * f[j])))]
+                for j in {int(weak[np.argmin(sig[weak])]), *isolated}:
+                    reasons[j] = f"not significant (cost change {sig[j]:.3g} x noise threshold)"
+        if not reasons:
+            return None
+        drop = np.array(sorted(reasons))
+        for j in drop:
+            self.log.append(("removed", float(f[j]), float(z[j]), reasons[j]))
+            self.tried.append(float(f[j]))
+        keep = np.ones(w.size, bool)
+        keep[drop] = False
+        return w[keep], z[keep], side[keep]
+
+    def _accept(self, w, z, ev, info, new, side):
+        """Indices in ``new`` of poles that converged, are not rejected and are significant."""
+        bad = self._rejected(w, z, side, info, ev)
+        sig = self.significance(w, z, ev)
+        ok = [j for j in new if sig[j] >= 1.0 and j not in bad]
+        return np.array(ok, int)
+
+    def _rejected(self, w, z, side, info, ev):
+        """{index: reason} of poles at a bound, fitting noise or filling in."""
+        f = w / (2 * np.pi)
+        reasons = {}
+        edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
+                              (self.fband[1] - f < 0.5 * self.df))
+        for j in np.flatnonzero(info.get("at_bound", np.zeros(w.size, bool)) | edge):
+            reasons[j] = "did not converge (pushed to a bound)"
+        for j in self._unresolved(w, z, side, ev, reasons):
+            reasons[j] = (f"noise fitting (half-power bandwidth below {self.min_bw:g} line "
+                          "spacing, damping not determined by the data)")
+        for j in np.flatnonzero((side == 0) & (z > self.zeta_max)):
+            reasons.setdefault(j, f"filler (damping above {self.zeta_max:g})")
+        return reasons
+
+    def _unresolved(self, w, z, side, ev, reasons):
+        """Poles whose half-power bandwidth ``2 zeta f`` is below ``min_bandwidth`` line
+        spacings and whose damping the data do not determine (noise fitting).
+
+        A pole fitted to the noise of a line or two has a damping the data cannot tell
+        from zero; a lightly damped mode under-resolved by the lines but well above the
+        noise has its damping set by the lines on its flanks.  In band, a narrow pole is
+        kept when its damping is significantly above zero, ``std(ln zeta)`` (3.56) below
+        :data:`RESOLVED_STD`; out of band (no lines near it) the bandwidth rule applies
+        alone.
+        """
+        f = w / (2 * np.pi)
+        narrow = [j for j in np.flatnonzero(2 * z * f < self.min_bw * self.df)
+                  if j not in reasons]
+        check = [j for j in narrow if side[j] == 0]
+        if not check:
+            return narrow
+        std = self.noise.log_damping_std(w, z, ev, check)
+        resolved = {j for j, sj in zip(check, std) if sj < RESOLVED_STD}
+        return [j for j in narrow if j not in resolved]
+
+    def _drop_weak_candidates(self, w, z, side, pending):
+        """Initial candidates far below the noise threshold at their picked position
+        (noise peaks of the indicator functions) are dropped before the first, costly,
+        fit; a true mode dropped here is not excluded from the residual scan."""
+        if w.size <= 1:
+            return w, z, side, pending
+        x = np.concatenate([np.log(w), np.log(z)])
+        sig0 = self.significance(w, z, self.prob.evaluate(x))
+        keep = (sig0 >= 0.2) | (side != 0)
+        for j in np.flatnonzero(~keep):
+            self.log.append(("dropped candidate", float(w[j] / (2 * np.pi)), float(z[j]),
+                             f"cost change {sig0[j]:.3g} x noise threshold"))
+        return w[keep], z[keep], side[keep], pending[keep]
+
+    def _out_of_band(self, state, tried_side):
+        """Modes just outside the band (their tails distort the in-band residual),
+        retried on each side whenever the number of in-band poles has changed; returns
+        the new state, or None when no trial was kept."""
+        changed = None
+        for sd in (-1, 1):
+            w, z, side = state[:3]
+            nin = int(np.count_nonzero(side == 0))
+            if tried_side[sd] == nin or np.any(side == sd):
+                continue
+            tried_side[sd] = nin
+            f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
+            wn = np.concatenate([w, [2 * np.pi * f0]])
+            zn = np.concatenate([z, [0.01]])
+            sn = np.concatenate([side, [sd]])
+            new = np.array([wn.size - 1])
+            w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=new)
+            if not self._accept(w2, z2, ev2, info2, new, sn).size:
+                continue
+            w2, z2, ev2, info2 = self.fit(w2, z2, sn)
+            if self._accept(w2, z2, ev2, info2, new, sn).size:
+                self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
+                                 "out-of-band mode " + ("below" if sd < 0 else "above")))
+                state = changed = (w2, z2, sn, ev2, info2)
+                self.best = state
+        return changed
+
+    def _add_missed(self, state, cand, reason="residual peak"):
+        """Fit the candidates of the residual scan (or pending initial candidates); the
+        new state, or None when none of them is kept (the rejected ones are in
+        ``self.tried``)."""
+        w, z, side = state[:3]
+        n0 = w.size
+        wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
+        zn = np.concatenate([z, [c[1] for c in cand]])
+        sn = np.concatenate([side, np.zeros(len(cand), int)])
+        # first the new poles alone (the others fixed), then all of them
+        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
+        for fi, _ in cand:
+            self.tried.append(float(fi))
+        ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
+        if not ok.size:
+            return None
+        keep = np.concatenate([np.arange(n0), ok])
+        w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
+        for j in range(n0, keep.size):
+            self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]), reason))
+        return w2, z2, sn[keep], ev2, info2
+
+    def run(self, w, z, side, bar=None, rounds=20, pending=None):
+        """The add/remove loop from initial poles ``(w rad/s, z, side)``.
+
+        Parameters
+        ----------
+        w, z : ndarray
+            Initial natural frequencies (rad/s) and damping ratios.
+        side : ndarray of int
+            0 in band, -1 below, +1 above.
+        bar : progress bar, optional
+            Shows the number of poles and the relative cost.
+        rounds : int
+            Maximum number of rounds.
+        pending : ndarray of bool, optional
+            Candidates added after the first fit, as new poles fitted alone first (the
+            peaks no LSCF pole explains): a noise peak in the first full search would
+            wander to a bound and cost many evaluations.
+
+        Returns
+        -------
+        tuple
+            ``(w, z, side, ev, info)`` of the last fit (also kept in :attr:`best`).
+        """
+        pending = np.zeros(w.size, bool) if pending is None else np.asarray(pending, bool)
+        w, z, side, pending = self._drop_weak_candidates(w, z, side, pending)
+        if pending.all():
+            pending[:] = False
+        state = self.best = self._first_fit(w[~pending], z[~pending], side[~pending])
+        if pending.any():
+            new = self._add_missed(state, list(zip(w[pending] / (2 * np.pi), z[pending])),
+                                   "peak of the indicator functions")
+            state = self.best = state if new is None else new
+        tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
+        for _ in range(rounds):
+            w, z, side, ev, info = state
+            if bar is not None:
+                bar.set_postfix_str(f"poles={w.size}, cost={ev['cost'] / self.prob.normY2:.2e}")
+            # the significance test judges poles against the residual as noise: the tails
+            # of modes just outside the band (no candidates there when the FRF has no
+            # lines outside it) inflate the residual over the whole band, so insignificant
+            # poles are removed only once both sides were tried
+            exact = ev["cost"] <= self.noise.floor
+            pr = self.prune(w, z, side, ev, info,
+                            weak=exact or self._sides_tried(side, tried_side))
+            if pr is not None:
+                state = self.best = self._first_fit(*pr)
+                continue
+            if exact:
+                break                         # numerically exact: nothing left to find
+            first = not self._sides_tried(side, tried_side)
+            new = self._out_of_band(state, tried_side)
+            if new is not None or first:      # first trials: then the insignificant poles
+                state = state if new is None else new
+                continue
+            # missed in-band modes: add at residual peaks, keep the significant ones;
+            # a round whose candidates were all rejected ends the search
+            cand = self.missed(w, z, ev)
+            if not cand:
+                break
+            new = self._add_missed(state, cand)
+            if new is None:
+                break
+            state = self.best = new
+        else:
+            self.warn(f"automatic pole selection stopped after {rounds} rounds")
+        return self.best
+
+    @staticmethod
+    def _sides_tried(side, tried_side):
+        """Whether each side has an out-of-band pole or was tried."""
+        return all(tried_side[sd] is not None or np.any(side == sd) for sd in (-1, 1))
+
+    def _first_fit(self, w, z, side):
+        """State ``(w, z, side, ev, info)`` of a full search from ``(w, z)``."""
+        w, z, ev, info = self.fit(w, z, side)
+        return w, z, side, ev, info

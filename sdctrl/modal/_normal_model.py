@@ -1,0 +1,498 @@
+"""Truncated normal-mode models (thesis section 2.1, eq. 2.15) and their state-space form.
+
+``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u`` with mass-normalised
+modes: ``Omega`` (rad/s)^2, ``Gamma`` rad/s (full when damping is non-proportional),
+``cphi`` (ns, n) modal observability, ``phib`` (n, na) modal controllability and
+``E`` (ns, na) the static correction of truncated high-frequency modes (2.17).
+An optional ``F`` (ns, na) adds the low-frequency (residual mass) correction ``F/s^2`` of
+truncated low-frequency modes (2.15), (2.23)-(2.24).  Static correction modes (2.21)-(2.22)
+are carried as ordinary modes (appended columns of ``cphi``/``phib``, critically damped
+entries of ``Gamma``), as :meth:`sdctrl.FEModel.normal_mode_model` builds them with
+``static=True``.  All modal quantities describe the displacement/force system.
+
+The model-space algebra behind :meth:`NormalModeModel.modified` (reduced-coordinate
+changes, 4.17) and :meth:`NormalModeModel.with_feedback` (D-strut loops, 5.3-5.4) lives
+in :mod:`sdctrl.modal._operations`; reanalysis of changes given on physical DOFs is chapter IV's
+:mod:`sdctrl.updating._reanalysis`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sdctrl.modal._operations import modified, with_feedback
+from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
+from sdctrl._lib.validate import (
+    QUANTITY_POWER,
+    as_array,
+    check_finite_result,
+    check_freq,
+    check_info,
+    check_labels,
+    check_quantity,
+    check_scalar,
+    check_square,
+    readonly,
+    signal_names,
+)
+
+__all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with_feedback"]
+
+
+@dataclass(frozen=True, eq=False)
+class NormalModeModel:
+    """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u``.
+
+    With a low-frequency correction ``F`` the displacement output is
+    ``y = cphi p + (E + F/s^2) u`` (2.15), (2.24).
+
+    Parameters
+    ----------
+    Omega : array_like, shape (n, n)
+        Modal stiffness in (rad/s)^2, ``diag(omega_j^2)`` for normal modes
+        (symmetric; a full matrix is accepted after modifications).
+    Gamma : array_like, shape (n, n)
+        Modal damping in rad/s, symmetric; ``2 zeta_j omega_j`` on the diagonal for
+        proportional damping, full for non-proportional damping.
+    cphi : array_like, shape (ns, n)
+        Modal observability (displacement sensors).
+    phib : array_like, shape (n, na)
+        Modal controllability.
+    E : array_like, shape (ns, na), optional
+        Static (residual flexibility) term of the displacement response.
+    sensors, actuators : sequence of str, optional
+        Labels of outputs and inputs (StateSpace signal names follow them).
+    shapes : array_like, shape (N, n), optional
+        Mode shapes on physical DOFs (FE-derived and hybrid models).
+    dofs : sequence of str, optional
+        Labels of the N physical DOFs of ``shapes``.
+    omega_c : float, optional
+        Cut-off (rad/s) of the critically damped correction mode used to realise
+        ``E`` for velocity/acceleration outputs; default ten times the highest
+        modal frequency.
+    F : array_like, shape (ns, na), optional
+        Low-frequency (residual mass) correction of truncated low-frequency modes: the
+        displacement response carries ``F/s^2`` (2.23); ``to_statespace`` realises it
+        exactly with one rigid-body correction mode per actuator (2.24).
+    """
+
+    Omega: np.ndarray
+    Gamma: np.ndarray
+    cphi: np.ndarray
+    phib: np.ndarray
+    E: np.ndarray | None = None
+    sensors: tuple[str, ...] | None = None
+    actuators: tuple[str, ...] | None = None
+    shapes: np.ndarray | None = None
+    dofs: tuple[str, ...] | None = None
+    omega_c: float | None = None
+    info: dict = field(default_factory=dict, compare=False, repr=False)
+    F: np.ndarray | None = None
+
+    def __post_init__(self):
+        Omega = check_square(self.Omega, "Omega")
+        n = Omega.shape[0]
+        Gamma = check_square(self.Gamma, "Gamma", n)
+        cphi = as_array(self.cphi, "cphi", ndim=2)
+        phib = as_array(self.phib, "phib", ndim=2)
+        if cphi.shape[1] != n:
+            raise ValueError(f"cphi must have shape (ns, n={n}), got {cphi.shape}")
+        if phib.shape[0] != n:
+            raise ValueError(f"phib must have shape (n={n}, na), got {phib.shape}")
+        ns, na = cphi.shape[0], phib.shape[1]
+        for name, X in (("Omega", Omega), ("Gamma", Gamma)):
+            scale = max(np.abs(X).max(), 1e-300)
+            if np.abs(X - X.T).max() > 1e-8 * scale:
+                raise ValueError(f"{name} must be symmetric")
+        E = None
+        if self.E is not None:
+            E = as_array(self.E, "E", shape=(ns, na))
+        F = None
+        if self.F is not None:
+            F = as_array(self.F, "F", shape=(ns, na))
+        shapes = None
+        if self.shapes is not None:
+            shapes = as_array(self.shapes, "shapes", ndim=2)
+            if shapes.shape[1] != n:
+                raise ValueError(f"shapes must have shape (N, n={n}), got {shapes.shape}")
+        dofs = None
+        if self.dofs is not None:
+            if shapes is None:
+                raise ValueError("dofs given without shapes")
+            dofs = check_labels(self.dofs, shapes.shape[0], "dofs", "q")
+        omega_c = check_scalar(self.omega_c, "omega_c", positive=True, optional=True)
+        sets = object.__setattr__
+        sets(self, "Omega", readonly(Omega))
+        sets(self, "Gamma", readonly(Gamma))
+        sets(self, "cphi", readonly(cphi))
+        sets(self, "phib", readonly(phib))
+        sets(self, "E", readonly(E))
+        sets(self, "F", readonly(F))
+        sets(self, "shapes", readonly(shapes))
+        sets(self, "dofs", dofs)
+        sets(self, "omega_c", omega_c)
+        sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
+        sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
+        sets(self, "info", check_info(self.info))
+
+    # --- display ------------------------------------------------------------------
+    def __repr__(self) -> str:
+        G = self.Gamma
+        full = self.n > 1 and np.count_nonzero(G - np.diag(np.diag(G))) > 0
+        return one_line(type(self).__name__, [
+            f"n={self.n}", f"ns={self.ns}", f"na={self.na}", f"band={hz_range(self.frequency)}",
+            "full Gamma" if full else "", "E" if self.E is not None else "",
+            "F" if self.F is not None else "",
+            "" if self.shapes is None else f"shapes on {self.shapes.shape[0]} DOFs"])
+
+    def _repr_markdown_(self) -> str:
+        w = 2 * np.pi * self.frequency
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zeta = np.where(w > 0, np.diag(self.Gamma) / (2 * w), np.nan)
+        rows = [(j + 1, f"{self.frequency[j]:.4g}", f"{100 * zeta[j]:.3g}")
+                for j in range(self.n)]
+        return (f"`{self!r}`\n\n" + markdown_table(
+            ["mode", "frequency (Hz)", "damping (%) Gamma_jj / 2 w_j"], rows, MAX_ROWS))
+
+    # --- sizes and modal data -----------------------------------------------------
+    @property
+    def n(self) -> int:
+        """Number of modes."""
+        return self.Omega.shape[0]
+
+    @property
+    def ns(self) -> int:
+        """Number of sensors (outputs)."""
+        return self.cphi.shape[0]
+
+    @property
+    def na(self) -> int:
+        """Number of actuators (inputs)."""
+        return self.phib.shape[1]
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """Undamped natural frequencies ``sqrt(diag(Omega)) / 2 pi`` in Hz."""
+        return np.sqrt(np.clip(np.diag(self.Omega), 0, None)) / (2 * np.pi)
+
+    @property
+    def expanded(self) -> np.ndarray | None:
+        """Alias of :attr:`shapes` (expanded mode shapes of hybrid models)."""
+        return self.shapes
+
+    @property
+    def poles(self) -> np.ndarray:
+        """Complex poles (rad/s) of the second-order system, Im >= 0, sorted by modulus."""
+        return poles(self)
+
+    def replace(self, **changes) -> NormalModeModel:
+        """Copy with some fields changed (validated again)."""
+        kw = {k: getattr(self, k) for k in ("Omega", "Gamma", "cphi", "phib", "E", "sensors",
+                                            "actuators", "shapes", "dofs", "omega_c", "info", "F")}
+        kw.update(changes)
+        return NormalModeModel(**kw)
+
+    # --- doors into the module functions ------------------------------------------
+    def modified(self, dmu=None, dGamma=None, dOmega=None) -> NormalModeModel:
+        """Model after reduced-coordinate mass, damping and stiffness changes (4.17).
+
+        See :func:`sdctrl.modal._normal_model.modified`.
+
+        Parameters
+        ----------
+        dmu : array_like, shape (n, n), optional
+            Change of the modal mass ``phi^T dM phi`` (symmetric).
+        dGamma : array_like, shape (n, n), optional
+            Change of the modal damping ``phi^T dC phi`` (rad/s, symmetric).
+        dOmega : array_like, shape (n, n), optional
+            Change of the modal stiffness ``phi^T dK phi`` ((rad/s)^2, symmetric).
+
+        Returns
+        -------
+        NormalModeModel
+        """
+        return modified(self, dmu, dGamma, dOmega)
+
+    def with_feedback(self, b, c, kp=0.0, kv=0.0, modal: bool = False) -> NormalModeModel:
+        """Closed loop with relative force feedback ``F = -kv y' - kp y`` (D-strut, 5.3-5.4).
+
+        See :func:`sdctrl.modal._normal_model.with_feedback`.
+
+        Parameters
+        ----------
+        b : array_like, shape (N, k) or (n, k)
+            Force input shapes on the DOFs of :attr:`shapes`, or ``phi^T b`` if ``modal``.
+        c : array_like, shape (k, N) or (k, n)
+            Measured relative displacements on the DOFs of :attr:`shapes`, or ``c phi``.
+        kp : float or array_like, shape (k,) or (k, k)
+            Position (stiffness) gain, force per unit displacement.
+        kv : float or array_like, shape (k,) or (k, k)
+            Velocity (damping) gain, force per unit velocity.
+        modal : bool
+            True when ``b`` and ``c`` are already modal (``phi^T b`` and ``c phi``).
+
+        Returns
+        -------
+        NormalModeModel
+        """
+        return with_feedback(self, b, c, kp, kv, modal)
+
+    def proportional(self) -> NormalModeModel:
+        """Copy with ``Gamma`` forced diagonal (proportional damping), for comparisons.
+
+        Returns
+        -------
+        NormalModeModel
+        """
+        return self.replace(Gamma=np.diag(np.diag(self.Gamma)),
+                            info={**self.info, "proportional": True})
+
+    def uncertain(self, dGamma=None, dOmega=None, db=None, dc=None):
+        """Structured uncertain model (5.5); see :func:`sdctrl.robust._uncertainty.uncertain`.
+
+        Parameters
+        ----------
+        dGamma : array_like, shape (n, n), optional
+            Bound of each entry of ``Gamma`` (0 = certain); a symmetric pair is one parameter.
+        dOmega : array_like, shape (n, n), optional
+            Bound of each entry of ``Omega`` (0 = certain); a symmetric pair is one parameter.
+        db : array_like, shape (n, na), optional
+            Bound of each entry of ``phib``.
+        dc : array_like, shape (ns, n), optional
+            Bound of each entry of ``cphi``.
+
+        Returns
+        -------
+        UncertainModel
+        """
+        from sdctrl.robust._uncertainty import uncertain
+
+        return uncertain(self, dGamma=dGamma, dOmega=dOmega, db=db, dc=dc)
+
+    def frf(self, freq, quantity: str = "displacement"):
+        """FRF of the model, eq. (2.15); see :func:`sdctrl.modal._normal_model.frf`.
+
+        Parameters
+        ----------
+        freq : array_like
+            Frequencies in Hz, strictly increasing and positive.
+        quantity : {"displacement", "velocity", "acceleration"}
+            Measured quantity of the returned FRF (``(j w)^k`` times the displacement FRF).
+
+        Returns
+        -------
+        FRF
+        """
+        return frf(self, freq, quantity)
+
+    def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
+        """python-control StateSpace with named signals; see :func:`sdctrl.modal._normal_model.to_statespace`.
+
+        Parameters
+        ----------
+        quantity : {"displacement", "velocity", "acceleration"}
+            Output quantity.
+        omega_c : float, optional
+            Cut-off (rad/s) of the critically damped correction mode realising ``E`` for
+            velocity/acceleration outputs; default ten times the highest modal frequency.
+
+        Returns
+        -------
+        control.StateSpace
+        """
+        return to_statespace(self, quantity, omega_c)
+
+
+def poles(model: NormalModeModel) -> np.ndarray:
+    """Poles of ``s^2 I + s Gamma + Omega`` (rad/s) with Im >= 0, sorted by modulus.
+
+    Real (overdamped) poles are listed as well; for each underdamped mode only the
+    upper half-plane pole is kept.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        The model.
+
+    Returns
+    -------
+    ndarray, complex
+
+    Examples
+    --------
+    >>> import numpy as np, sdctrl as sd
+    >>> nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.4]), [[1.0]], [[1.0]])
+    >>> np.round(poles(nm), 4)
+    array([-0.2+1.99j])
+    """
+    n = model.n
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
+    lam = np.linalg.eigvals(A)
+    scale = max(np.abs(lam).max(), 1.0)
+    lam = lam[lam.imag >= -1e-12 * scale]
+    return lam[np.argsort(np.abs(lam))]
+
+
+def frf(model: NormalModeModel, freq, quantity: str = "displacement"):
+    """FRF of a normal-mode model, eq. (2.15), vectorised over frequency.
+
+    ``H_d(s) = cphi (s^2 I + s Gamma + Omega)^-1 phib + E + F/s^2`` and
+    ``H_q = (j w)^k H_d`` with ``k = 0, 1, 2`` for displacement, velocity,
+    acceleration.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+    freq : array_like
+        Frequencies in Hz.
+    quantity : {"displacement", "velocity", "acceleration"}
+
+    Returns
+    -------
+    FRF
+    """
+    from sdctrl.data._frf import FRF
+
+    f = check_freq(freq, "freq")
+    q = check_quantity(quantity, "quantity")
+    with np.errstate(all="ignore"):
+        H = _frf_array(model, 2 * np.pi * f)
+        H = H * ((1j * 2 * np.pi * f) ** QUANTITY_POWER[q])[:, None, None]
+    check_finite_result(H, "the FRF", "freq or the model's Omega, Gamma, cphi, phib, E, F")
+    return FRF(f, H, quantity=q, sensors=model.sensors, actuators=model.actuators)
+
+
+def _frf_array(model: NormalModeModel, omega: np.ndarray) -> np.ndarray:
+    """Displacement FRF array (nw, ns, na) at ``omega`` rad/s."""
+    n = model.n
+    s = 1j * omega
+    if np.count_nonzero(model.Gamma - np.diag(np.diag(model.Gamma))) == 0 and \
+            np.count_nonzero(model.Omega - np.diag(np.diag(model.Omega))) == 0:
+        d = s[:, None] ** 2 + s[:, None] * np.diag(model.Gamma) + np.diag(model.Omega)
+        H = np.einsum("in,wn,nj->wij", model.cphi, 1.0 / d, model.phib, optimize=True)
+    else:
+        Z = s[:, None, None] ** 2 * np.eye(n) + s[:, None, None] * model.Gamma + model.Omega
+        X = np.linalg.solve(Z, np.broadcast_to(model.phib.astype(complex),
+                                               (s.size,) + model.phib.shape))
+        H = model.cphi @ X
+    if model.E is not None:
+        H = H + model.E
+    if model.F is not None:
+        H = H + model.F / (s[:, None, None] ** 2)
+    return H
+
+
+def default_omega_c(model: NormalModeModel) -> float:
+    """Default correction-mode cut-off: ten times the highest modal frequency (rad/s)."""
+    if model.omega_c is not None:
+        return model.omega_c
+    wmax = np.sqrt(max(np.abs(np.diag(model.Omega)).max(), 1e-12)) if model.n else 1.0
+    return 10.0 * wmax
+
+
+def to_statespace(model: NormalModeModel, quantity: str = "displacement",
+                  omega_c: float | None = None):
+    """Real state-space realisation with named signals, states ``[p; p']``.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+    quantity : {"displacement", "velocity", "acceleration"}
+        Output quantity.
+    omega_c : float, optional
+        Cut-off (rad/s) of the critically damped correction mode realising ``E``
+        for velocity/acceleration outputs (2.19)-(2.20); default
+        :func:`default_omega_c`.  Displacement realises ``E`` exactly as a feedthrough.
+
+    Returns
+    -------
+    control.StateSpace
+        Outputs named after ``model.sensors``, inputs after ``model.actuators`` followed
+        by ``_u`` (``.`` replaced by ``_``): sensor ``"N3.z"`` is output ``N3_z``, actuator
+        ``"N3.z"`` input ``N3_z_u``, so a collocated pair never shares a name.
+
+    Raises
+    ------
+    ValueError
+        Two labels of one side with the same signal name (``"a.b"`` and ``"a_b"``), or an
+        input name equal to an output name.
+
+    Notes
+    -----
+    For velocity/acceleration a term ``E`` cannot be a proper feedthrough.  Each
+    actuator gets a critically damped correction mode ``w_c^2/(s + w_c)^2`` (2.20):
+    ``E (j w)^k w_c^2/(j w + w_c)^2`` equals the E term up to a relative error of
+    about ``2 w / w_c`` in the band.
+
+    Static correction modes (2.21)-(2.22) carried as modes of the model are realised like
+    the other modes.  A low-frequency correction ``F`` (2.23) is realised exactly, for every
+    quantity, by one rigid-body correction mode per actuator (2.24), ``z'' = u`` and
+    ``y = F z`` (displacement), ``F z'`` (velocity) or ``F u`` (acceleration): its states
+    ``zr``/``dzr`` are double integrators (poles at 0).
+    """
+    q = check_quantity(quantity, "quantity")
+    omega_c = check_scalar(omega_c, "omega_c", positive=True, optional=True)
+    with np.errstate(all="ignore"):
+        A, B, C, D, states = _realisation(model, QUANTITY_POWER[q], omega_c)
+    check_finite_result([np.abs(X).max(initial=0.0) for X in (A, B, C, D)], "the realisation",
+                        "omega_c or the model's Omega, Gamma, cphi, phib, E, F")
+    import control
+
+    inputs, outputs = signal_names(model.sensors, model.actuators)
+    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
+
+
+def _realisation(model: NormalModeModel, k: int, omega_c: float | None):
+    """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``k``."""
+    n, ns, na = model.n, model.ns, model.na
+    Z, I_ = np.zeros((n, n)), np.eye(n)
+    A = np.block([[Z, I_], [-model.Omega, -model.Gamma]])
+    B = np.vstack([np.zeros((n, na)), model.phib])
+    if k == 0:
+        C = np.hstack([model.cphi, np.zeros((ns, n))])
+        D = np.zeros((ns, na))
+    elif k == 1:
+        C = np.hstack([np.zeros((ns, n)), model.cphi])
+        D = np.zeros((ns, na))
+    else:
+        C = np.hstack([-model.cphi @ model.Omega, -model.cphi @ model.Gamma])
+        D = model.cphi @ model.phib
+    states = [f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)]
+    if model.E is not None:
+        if k == 0:
+            D = D + model.E
+        else:
+            wc = np.float64(omega_c if omega_c is not None else default_omega_c(model))
+            # one critically damped correction state pair per actuator:
+            # z'' + 2 wc z' + wc^2 z = wc^2 u  ->  z = wc^2/(s+wc)^2 u
+            Zc, Ic = np.zeros((na, na)), np.eye(na)
+            Ac = np.block([[Zc, Ic], [-wc**2 * Ic, -2 * wc * Ic]])
+            Bc = np.vstack([Zc, wc**2 * Ic])
+            if k == 1:
+                Cc = np.hstack([np.zeros((ns, na)), model.E])
+                Dc = np.zeros((ns, na))
+            else:
+                Cc = np.hstack([-wc**2 * model.E, -2 * wc * model.E])
+                Dc = wc**2 * model.E
+            A = np.block([[A, np.zeros((2 * n, 2 * na))], [np.zeros((2 * na, 2 * n)), Ac]])
+            B = np.vstack([B, Bc])
+            C = np.hstack([C, Cc])
+            D = D + Dc
+            states += [f"zc{j}" for j in range(na)] + [f"dzc{j}" for j in range(na)]
+    if model.F is not None:
+        # one rigid-body correction mode per actuator (2.24): z'' = u, y_d = F z
+        Zr, Ir = np.zeros((na, na)), np.eye(na)
+        Ar = np.block([[Zr, Ir], [Zr, Zr]])
+        Br = np.vstack([Zr, Ir])
+        Cr = [np.hstack([model.F, np.zeros((ns, na))]), np.hstack([np.zeros((ns, na)), model.F]),
+              np.zeros((ns, 2 * na))][k]
+        if k == 2:
+            D = D + model.F
+        m = A.shape[0]
+        A = np.block([[A, np.zeros((m, 2 * na))], [np.zeros((2 * na, m)), Ar]])
+        B = np.vstack([B, Br])
+        C = np.hstack([C, Cr])
+        states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
+    return A, B, C, D, states

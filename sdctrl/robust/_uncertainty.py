@@ -1,0 +1,490 @@
+"""Structured parametric uncertainty of normal mode models (thesis section 5.2).
+
+The uncertain model (5.5) is ``p'' + (Gamma + dGamma) p' + (Omega + dOmega) p = (phib + db) u``,
+``y = (cphi + dc) p + E u``.  Every uncertain entry is one real parameter; a symmetric off-diagonal
+pair of ``Gamma`` or ``Omega`` is one repeated real scalar (a rank-two channel).  The perturbation
+enters affinely, so the linear fractional transformation built by :meth:`UncertainModel.lft` is exact.
+
+Place in the flow: this module sits *before* :mod:`sdctrl.modal._normal_model` (``frf -> io -> uncertainty ->
+modal``), so that :meth:`NormalModeModel.uncertain` builds an :class:`UncertainModel` without a
+cycle.  It never imports :mod:`sdctrl.modal._normal_model`: it reads the nominal model through its fields
+(``Omega``, ``Gamma``, ``cphi``, ``phib``, ``E``, ``F``, ``sensors``, ``actuators``,
+``frequency``) and copies it with ``model.replace``, which every normal-mode model (identified,
+FE-derived, hybrid) has.  The robustness analysis that uses it (:mod:`sdctrl.robust._stability`) sits after
+the closed-loop modules.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sdctrl._lib.statespace import ss_frf
+from sdctrl._lib.display import MAX_ROWS, markdown_table, one_line
+from sdctrl._lib.validate import as_array, check_freq, check_int, check_seed, readonly, signal_names
+from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
+
+__all__ = [
+    "CompactLFT",
+    "MultiTestResult",
+    "UncertainModel",
+    "default_bounds",
+    "modal_density_bound",
+    "multi_test_statistics",
+    "psd_gamma_bound",
+    "uncertain",
+]
+
+
+#: largest normalised parameter accepted: a million times the bounds is a scaling mistake
+DELTA_MAX = 1e6
+#: most random samples/vertices one call draws
+MAX_DRAWS = 10**6
+
+
+def _bound(arr, shape, name, symmetric):
+    if arr is None:
+        return np.zeros(shape)
+    a = as_array(arr, name, dtype=float)
+    if a.shape != shape:
+        raise ValueError(f"{name} must have shape {shape} (the shape of the perturbed parameter), "
+                         f"got {a.shape}")
+    if np.any(a < 0):
+        raise ValueError(f"{name} must hold non-negative bounds")
+    if symmetric:
+        a = np.maximum(a, a.T)  # one parameter per symmetric pair
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class CompactLFT:
+    """Delta channels of an :class:`UncertainModel` through the signals they read and drive.
+
+    Parameters
+    ----------
+    A, B, C, D : ndarray
+        Nominal plant (displacement outputs), ``x = [p; p']``.
+    Bv, Dyv : ndarray (nx, m), (ns, m)
+        Where the ``m`` driven signals ``v`` enter the states and the outputs.
+    Cv, Dvu : ndarray (p, nx), (p, na)
+        The ``p`` read signals ``q = Cv x + Dvu u``.
+    L, R : ndarray (N, p), (m, N)
+        Channel ``k`` reads ``z_k = L[k] q``; the channels drive ``v = R w``.
+    reps : tuple of int
+        Repetition of each real scalar block (channel order).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    Bv: np.ndarray
+    Dyv: np.ndarray
+    Cv: np.ndarray
+    Dvu: np.ndarray
+    L: np.ndarray
+    R: np.ndarray
+    reps: tuple
+
+
+@dataclass(frozen=True, eq=False)
+class UncertainModel:
+    """Normal mode model with bounded real parametric uncertainty, eq. (5.5).
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Nominal model.
+    dGamma, dOmega : ndarray (n, n)
+        Bounds on the entries of ``Gamma`` and ``Omega`` (symmetric pairs are one parameter).
+    db : ndarray (n, na)
+        Bounds on the entries of ``phib``.
+    dc : ndarray (ns, n)
+        Bounds on the entries of ``cphi``.
+    params : list
+        Internal list of ``(name, (kind, i, j), repetition, bound)`` built by :func:`uncertain`.
+    """
+
+    model: object
+    dGamma: np.ndarray
+    dOmega: np.ndarray
+    db: np.ndarray
+    dc: np.ndarray
+    params: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        kinds = {}
+        for _, (kind, _i, _j), _r, _b in self.params:
+            kinds[kind] = kinds.get(kind, 0) + 1
+        what = ", ".join(f"{k} {v}" for k, v in kinds.items())
+        m = self.model
+        return one_line("UncertainModel", [
+            f"n={m.n}", f"ns={m.ns}", f"na={m.na}",
+            f"{len(self.params)} uncertain parameters" + (f" ({what})" if what else ""),
+            f"{sum(p[2] for p in self.params)} Delta channels"])
+
+    def _repr_markdown_(self) -> str:
+        rows = [(name, rep, f"{beta:.3g}") for name, _, rep, beta in self.params]
+        return f"`{self!r}`\n\n" + markdown_table(["block", "repetition", "bound"], rows,
+                                                     MAX_ROWS)
+
+    # ------------------------------------------------------------------ structure
+    @property
+    def blocks(self) -> list:
+        """``(name, repetition)`` of each real scalar uncertainty, in channel order."""
+        return [(p[0], p[2]) for p in self.params]
+
+    @property
+    def nominal(self):
+        """Nominal model as a python-control StateSpace (displacement outputs)."""
+        return self.perturbed(np.zeros(len(self.params)))
+
+    def _matrices(self):
+        m = self.model
+        n, ns, na = m.n, m.ns, m.na
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-m.Omega, -m.Gamma]])
+        B = np.vstack([np.zeros((n, na)), m.phib])
+        C = np.hstack([m.cphi, np.zeros((ns, n))])
+        D = np.zeros((ns, na)) if m.E is None else np.array(m.E, float)
+        return A, B, C, D
+
+    def compact_lft(self) -> CompactLFT:
+        """The Delta channels through the few signals they read and drive (exact, affine).
+
+        Channel ``k`` reads ``z_k = L[k] q`` from the read signals ``q = Cv x + Dvu u``
+        (modal displacements ``p_j``, velocities ``p'_j``, actuator inputs) and the channel
+        outputs enter as ``v = R w`` in the driven signals (modal force rows, sensor outputs):
+        ``x' = A x + B u + Bv v``, ``y = C x + D u + Dyv v``.  A symmetric pair of ``Gamma`` or
+        ``Omega`` is two channels (``-beta d (e_i e_j^T + e_j e_i^T)``) sharing one scalar.
+        The channel-to-channel response ``L Mc(s) R`` then has the rank of the small core
+        ``Mc`` whatever the number of parameters.
+
+        Returns
+        -------
+        CompactLFT
+        """
+        m = self.model
+        n = m.n
+        A, B, C, D = self._matrices()
+        reads, drives, chans = {}, {}, []
+        for _name, (kind, i, j), rep, beta in self.params:
+            if kind in ("Omega", "Gamma"):
+                off = 0 if kind == "Omega" else n
+                pairs = [(("f", i), -beta, ("x", off + j))]
+                if rep == 2:
+                    pairs.append((("f", j), -beta, ("x", off + i)))
+            elif kind == "b":
+                pairs = [(("f", i), beta, ("u", j))]
+            else:
+                pairs = [(("y", i), beta, ("x", j))]
+            for drv, coef, rd in pairs:
+                drives.setdefault(drv, len(drives))
+                reads.setdefault(rd, len(reads))
+                chans.append((drives[drv], coef, reads[rd]))
+        nx, N = 2 * n, len(chans)
+        Bv, Dyv = np.zeros((nx, len(drives))), np.zeros((m.ns, len(drives)))
+        for (kind, i), c in drives.items():
+            (Bv[n + i] if kind == "f" else Dyv[i])[c] = 1.0
+        Cv, Dvu = np.zeros((len(reads), nx)), np.zeros((len(reads), m.na))
+        for (kind, i), r in reads.items():
+            (Cv if kind == "x" else Dvu)[r, i] = 1.0
+        L, R = np.zeros((N, len(reads))), np.zeros((len(drives), N))
+        for k, (c, coef, r) in enumerate(chans):
+            L[k, r] = 1.0
+            R[c, k] = coef
+        return CompactLFT(*(readonly(a) for a in (A, B, C, D, Bv, Dyv, Cv, Dvu, L, R)),
+                          reps=tuple(p[2] for p in self.params))
+
+    def lft(self):
+        """Linear fractional transformation ``(P, blocks)`` of the uncertain model.
+
+        Returns
+        -------
+        P : control.StateSpace
+            Inputs ``[delta channels w; actuators]``, outputs ``[delta channels z; sensors]``;
+            closing ``w = diag(delta_i I_ri) z`` with ``|delta_i| <= 1`` gives a model whose
+            parameters lie within the bounds (5.5).
+        blocks : list of (str, int)
+            Name and repetition of each real scalar block, in channel order.
+        """
+        import control
+
+        c = self.compact_lft()
+        A, B, C, D = c.A, c.B, c.C, c.D
+        Bw, Dyw, Cz, Dzu = c.Bv @ c.R, c.Dyv @ c.R, c.L @ c.Cv, c.L @ c.Dvu
+        r = Bw.shape[1]
+        m = self.model
+        chans = []
+        for name, _, rep, _ in self.params:
+            chans += [name] if rep == 1 else [f"{name}_{q}" for q in range(rep)]
+        inputs, outputs = signal_names(m.sensors, m.actuators,
+                                       extra_inputs=[f"{c}_w" for c in chans],
+                                       extra_outputs=[f"{c}_z" for c in chans])
+        P = control.ss(A, np.hstack([Bw, B]), np.vstack([Cz, C]),
+                       np.block([[np.zeros((r, r)), Dzu], [Dyw, D]]),
+                       inputs=inputs, outputs=outputs,
+                       states=[f"p{j}" for j in range(m.n)] + [f"dp{j}" for j in range(m.n)])
+        return P, self.blocks
+
+    def perturbed_matrices(self, deltas):
+        """Matrices ``(Omega, Gamma, phib, cphi)`` for normalised parameters ``deltas``.
+
+        Parameters
+        ----------
+        deltas : array_like (nblocks,)
+            Normalised parameter values (``|delta_i| <= 1`` spans the bounds).
+
+        Returns
+        -------
+        tuple of ndarray
+        """
+        d = as_array(deltas, "deltas", dtype=float)
+        if d.shape != (len(self.params),):
+            raise ValueError(f"deltas must be a 1-D array of {len(self.params)} entries (one "
+                             f"per block), got shape {d.shape}")
+        if np.any(np.abs(d) > DELTA_MAX):
+            raise ValueError(f"deltas are normalised (|delta| <= 1 spans the bounds): got "
+                             f"max |delta| = {np.abs(d).max():g} > {DELTA_MAX:g}")
+        m = self.model
+        mats = {"Omega": np.array(m.Omega, float), "Gamma": np.array(m.Gamma, float),
+                "b": np.array(m.phib, float), "c": np.array(m.cphi, float)}
+        for (name, (kind, i, j), rep, beta), dk in zip(self.params, d):
+            mats[kind][i, j] += beta * dk
+            if rep == 2:
+                mats[kind][j, i] += beta * dk
+        return mats["Omega"], mats["Gamma"], mats["b"], mats["c"]
+
+    def perturbed_model(self, deltas):
+        """Perturbed :class:`NormalModeModel` for normalised ``deltas``.
+
+        Parameters
+        ----------
+        deltas : array_like (nblocks,)
+            Normalised parameter values.
+
+        Returns
+        -------
+        NormalModeModel
+        """
+        Om, Ga, b, c = self.perturbed_matrices(deltas)
+        return self.model.replace(Omega=Om, Gamma=Ga, phib=b, cphi=c)
+
+    def perturbed(self, deltas):
+        """StateSpace of the model perturbed by normalised ``deltas`` (built directly, not by LFT).
+
+        Parameters
+        ----------
+        deltas : array_like (nblocks,)
+            Normalised parameter values (``|delta_i| <= 1`` spans the bounds).
+
+        Returns
+        -------
+        control.StateSpace
+        """
+        import control
+
+        Om, Ga, b, c = self.perturbed_matrices(deltas)
+        m = self.model
+        n, ns = m.n, m.ns
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Om, -Ga]])
+        B = np.vstack([np.zeros((n, m.na)), b])
+        C = np.hstack([c, np.zeros((ns, n))])
+        D = np.zeros((ns, m.na)) if m.E is None else np.array(m.E, float)
+        inputs, outputs = signal_names(m.sensors, m.actuators)
+        return control.ss(A, B, C, D, inputs=inputs, outputs=outputs,
+                          states=[f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)])
+
+    def sample_deltas(self, n: int, seed=None) -> np.ndarray:
+        """Uniform random normalised parameters, shape ``(n, nblocks)``.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        seed : int or Generator, optional
+            Random seed (deterministic results).
+
+        Returns
+        -------
+        ndarray
+        """
+        nb = len(self.params)
+        n = check_int(n, "n", minimum=1, maximum=MAX_DRAWS)
+        return np.random.default_rng(check_seed(seed)).uniform(-1.0, 1.0, size=(n, nb))
+
+    def sample(self, n: int, seed=None) -> list:
+        """``n`` random perturbed StateSpace models (uniform in the normalised box).
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        seed : int or Generator, optional
+            Random seed.
+
+        Returns
+        -------
+        list of control.StateSpace
+        """
+        return [self.perturbed(d) for d in self.sample_deltas(n, seed)]
+
+    def frf_envelope(self, freq, n_samples: int = 200, seed=0, max_vertices: int = 256):
+        """Min/max magnitude and phase of the FRF over random samples and box vertices.
+
+        Parameters
+        ----------
+        freq : array_like
+            Frequencies (Hz).
+        n_samples : int
+            Number of random interior samples (besides the vertices; 0 allowed).
+        seed : int, optional
+            Random seed.
+        max_vertices : int
+            All ``2**nblocks`` vertices are used when not more than this, else that many random
+            ones (0: none).
+
+        Returns
+        -------
+        dict
+            ``freq``, ``nominal`` (complex), ``mag_min``, ``mag_max``, ``phase_min``, ``phase_max``
+            (degrees, unwrapped around the nominal phase), each ``(nf, ns, na)``.
+        """
+        f = check_freq(freq, "freq")
+        n_samples = check_int(n_samples, "n_samples", minimum=0, maximum=MAX_DRAWS)
+        max_vertices = check_int(max_vertices, "max_vertices", minimum=0, maximum=MAX_DRAWS)
+        w = 2 * np.pi * np.asarray(f, float)
+        nb = len(self.params)
+        rng = np.random.default_rng(check_seed(seed))
+        if nb == 0:
+            verts = np.zeros((1, 0))
+        elif 2 ** nb <= max_vertices:
+            verts = np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
+        else:
+            verts = rng.choice([-1.0, 1.0], size=(max_vertices, nb))
+        ds = np.vstack([verts, rng.uniform(-1, 1, size=(n_samples, nb))])
+        nom = self.nominal
+        H0 = ss_frf(nom.A, nom.B, nom.C, nom.D, w)
+        mag_min = np.abs(H0).copy()
+        mag_max = mag_min.copy()
+        ph_min = np.zeros_like(mag_min)
+        ph_max = np.zeros_like(mag_min)
+        for d in ds:
+            s = self.perturbed(d)
+            H = ss_frf(s.A, s.B, s.C, s.D, w)
+            a = np.abs(H)
+            mag_min, mag_max = np.minimum(mag_min, a), np.maximum(mag_max, a)
+            dp = np.angle(H * np.conj(H0))
+            ph_min, ph_max = np.minimum(ph_min, dp), np.maximum(ph_max, dp)
+        p0 = np.unwrap(np.angle(H0), axis=0)
+        return {"freq": np.asarray(f, float), "nominal": H0, "mag_min": mag_min,
+                "mag_max": mag_max, "phase_min": np.degrees(p0 + ph_min),
+                "phase_max": np.degrees(p0 + ph_max)}
+
+
+def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainModel:
+    """Build the structured uncertain model (5.5) of a normal mode model.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Nominal model (``Omega``, ``Gamma``, ``phib``, ``cphi``, ``E``).
+    dGamma : array_like (n, n), optional
+        Bound of each entry of ``Gamma`` (0 = certain). A symmetric pair is one parameter.
+    dOmega : array_like (n, n), optional
+        Bound of each entry of ``Omega`` (0 = certain). A symmetric pair is one parameter.
+    db : array_like (n, na), optional
+        Bound of each entry of ``phib``.
+    dc : array_like (ns, n), optional
+        Bound of each entry of ``cphi``.
+
+    Returns
+    -------
+    UncertainModel
+    """
+    if getattr(model, "F", None) is not None and np.any(model.F):
+        raise ValueError("model has a low-frequency term F (residual mass, 2.23): its "
+                         "rigid-body correction states make every loop marginally stable, so "
+                         "robustness checks would be meaningless; model the modes below the "
+                         "band explicitly or drop F (model.replace(F=None))")
+    n, ns, na = model.n, model.ns, model.na
+    dG = _bound(dGamma, (n, n), "dGamma", True)
+    dO = _bound(dOmega, (n, n), "dOmega", True)
+    dB = _bound(db, (n, na), "db", False)
+    dC = _bound(dc, (ns, n), "dc", False)
+    params = []
+    for kind, a in (("Omega", dO), ("Gamma", dG)):
+        for i in range(n):
+            for j in range(i, n):
+                if a[i, j] > 0:
+                    params.append((f"delta_{kind}_{i}_{j}", (kind, i, j), 1 if i == j else 2,
+                                   float(a[i, j])))
+    for i, j in zip(*np.nonzero(dB)):
+        params.append((f"delta_b_{i}_{j}", ("b", int(i), int(j)), 1, float(dB[i, j])))
+    for i, j in zip(*np.nonzero(dC)):
+        params.append((f"delta_c_{i}_{j}", ("c", int(i), int(j)), 1, float(dC[i, j])))
+    return UncertainModel(model, readonly(dG), readonly(dO), readonly(dB), readonly(dC), params)
+
+
+def psd_gamma_bound(Gamma, fraction: float = 1.0) -> np.ndarray:
+    """Off-diagonal bounds keeping ``Gamma`` positive semi-definite (section 5.2.2).
+
+    For a 2x2 principal minor, ``Gamma_ij^2 <= Gamma_ii Gamma_jj``.
+
+    Parameters
+    ----------
+    Gamma : array_like (n, n)
+        Modal damping matrix.
+    fraction : float
+        Fraction of the positive definiteness bound to use.
+
+    Returns
+    -------
+    ndarray (n, n)
+        ``fraction * sqrt(g_ii g_jj)`` off the diagonal, 0 on it.
+    """
+    G = np.asarray(Gamma, float)
+    g = np.sqrt(np.clip(np.diag(G), 0, None))
+    out = fraction * np.outer(g, g)
+    np.fill_diagonal(out, 0.0)
+    return out
+
+
+def modal_density_bound(Omega, fraction: float = 1.0) -> np.ndarray:
+    """Modal-density bound ``|Omega_ii - Omega_jj|`` on stiffness couplings (section 5.2.2).
+
+    Parameters
+    ----------
+    Omega : array_like (n, n)
+        Modal stiffness matrix.
+    fraction : float
+        Fraction of the bound to use.
+
+    Returns
+    -------
+    ndarray (n, n)
+    """
+    d = np.diag(np.asarray(Omega, float))
+    out = fraction * np.abs(d[:, None] - d[None, :])
+    np.fill_diagonal(out, 0.0)
+    return out
+
+
+def default_bounds(model, gamma_fraction: float = 0.5, omega_fraction: float = 0.1) -> dict:
+    """Sensible default bounds from the physical constraints of section 5.2.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        Nominal model.
+    gamma_fraction : float
+        Fraction of the positive definiteness bound on ``Gamma`` couplings.
+    omega_fraction : float
+        Fraction of the modal-density bound on ``Omega`` couplings.
+
+    Returns
+    -------
+    dict
+        ``{"dGamma": ..., "dOmega": ...}`` usable as ``uncertain(model, **bounds)``.
+    """
+    return {"dGamma": psd_gamma_bound(model.Gamma, gamma_fraction),
+            "dOmega": modal_density_bound(model.Omega, omega_fraction)}

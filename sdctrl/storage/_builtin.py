@@ -1,0 +1,72 @@
+"""The built-in storable types: models and results of sdctrl (registered on import)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sdctrl.storage._registry import register_attrs
+from sdctrl.storage._values import short
+
+__all__: list[str] = []
+
+
+def _build_uncertain(model, dGamma, dOmega, db, dc, params=()):
+    """UncertainModel from stored fields, checked as :func:`sdctrl.robust._uncertainty.uncertain` builds
+    them (the dataclass itself does not validate)."""
+    from sdctrl.modal._normal_model import NormalModeModel
+    from sdctrl.robust._uncertainty import UncertainModel
+
+    if not isinstance(model, NormalModeModel):
+        raise TypeError(f"model must be a NormalModeModel, got {type(model).__name__}")
+    n, ns, na = model.n, model.ns, model.na
+    shapes = {"dGamma": (n, n), "dOmega": (n, n), "db": (n, na), "dc": (ns, n)}
+    bounds = {"dGamma": dGamma, "dOmega": dOmega, "db": db, "dc": dc}
+    for k, a in bounds.items():
+        if not isinstance(a, np.ndarray) or a.shape != shapes[k] or a.dtype.kind != "f" \
+                or not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ValueError(f"{k} must be finite non-negative bounds of shape {shapes[k]}")
+    if not isinstance(params, list):
+        raise TypeError("params must be a list")
+    limits = {"Omega": (n, n), "Gamma": (n, n), "b": (n, na), "c": (ns, n)}
+    for p in params:
+        ok = isinstance(p, tuple) and len(p) == 4 and isinstance(p[0], str) \
+            and isinstance(p[1], tuple) and len(p[1]) == 3 and p[1][0] in limits \
+            and p[2] in (1, 2) and not isinstance(p[2], bool) and isinstance(p[3], float) \
+            and math.isfinite(p[3]) and p[3] >= 0
+        ok = ok and all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < lim
+                        for i, lim in zip(p[1][1:], limits[p[1][0]]))
+        if not ok:
+            raise ValueError(f"malformed uncertain parameter {short(p)}")
+    return UncertainModel(model, dGamma, dOmega, db, dc, params)
+
+
+def _build_robust(**values):
+    from sdctrl.robust._stability import RobustResult
+
+    for k in ("margin", "margin_lower", "frequency"):
+        if k in values and (isinstance(values[k], bool) or not isinstance(values[k], int | float)):
+            raise TypeError(f"{k} must be a number")
+    if "stable" in values and not isinstance(values["stable"], bool):
+        raise TypeError("stable must be a bool")
+    return RobustResult(**values)
+
+
+_MODAL = {k: "f" for k in ("Omega", "Gamma", "cphi", "phib", "E", "F", "shapes")}
+register_attrs("FRF", "sdctrl.data._frf:FRF",
+               ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
+                "units"), kinds={"freq": "f", "H": "c", "coherence": "f"})
+register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
+               kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"})
+register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL)
+register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL)
+register_attrs("FEModel", "sdctrl.fe:FEModel",
+               ("M", "K", "C", "dofs", "nodes", "elements", "assembly"),
+               kinds={"M": "f", "K": "f", "C": "f"})
+register_attrs("UncertainModel", "sdctrl.robust._uncertainty:UncertainModel",
+               kinds={"dGamma": "f", "dOmega": "f", "db": "f", "dc": "f"},
+               build=_build_uncertain, lenient=())
+register_attrs("RobustResult", "sdctrl.robust._stability:RobustResult",
+               kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)
+register_attrs("Effect", "sdctrl.diagnosis:Effect")
