@@ -7,6 +7,7 @@ live on FE DOFs (:mod:`sdctrl.hybrids._build`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
+from types import MappingProxyType
 
 import numpy as np
 import scipy.sparse as sp
@@ -14,8 +15,8 @@ import scipy.sparse.linalg as spla
 
 from sdctrl._lib.validate import as_array
 
-__all__ = ["check_matrix", "check_positive_definite", "dof_indices",
-           "io_shapes", "label_list", "shapes_on_dofs"]
+__all__ = ["check_elements", "check_matrix", "check_nodes", "check_positive_definite",
+           "dof_indices", "io_shapes", "label_list", "shapes_on_dofs"]
 
 _SYM_RTOL = 1e-8
 
@@ -241,3 +242,55 @@ def _dof_rows(dofs: Sequence[str], labels, name: str, index=None) -> np.ndarray:
     B = np.zeros((len(dofs), idx.size))
     B[idx, np.arange(idx.size)] = 1.0
     return B
+
+
+def check_nodes(nodes) -> Mapping | None:
+    """Node coordinates by name, checked: a read-only mapping name -> (x, y, z), or None.
+
+    Parameters
+    ----------
+    nodes : mapping of str to array_like (3,) or None
+        The argument ``nodes`` of :class:`~sdctrl.fe.FEModel`.
+
+    Returns
+    -------
+    mapping or None
+    """
+    if nodes is None:
+        return None
+    if not isinstance(nodes, Mapping):
+        raise TypeError(f"nodes must be a mapping name -> (x, y, z), got {type(nodes).__name__}")
+    out = {}
+    for name, xyz in nodes.items():
+        v = as_array(xyz, f"nodes[{name!r}]", shape=(3,))
+        out[str(name)] = tuple(float(t) for t in v)
+    return MappingProxyType(out)
+
+
+def check_elements(elements, nodes: Mapping | None) -> tuple | None:
+    """Element node pairs, checked against the node table: a tuple of ``(a, b)`` or None.
+
+    Parameters
+    ----------
+    elements : sequence of (str, str) or None
+        The argument ``elements`` of :class:`~sdctrl.fe.FEModel`.
+    nodes : mapping or None
+        The checked node table (:func:`check_nodes`); pairs must name its nodes.
+
+    Returns
+    -------
+    tuple of (str, str) or None
+    """
+    if elements is None:
+        return None
+    if isinstance(elements, str) or not isinstance(elements, Sequence | np.ndarray):
+        raise TypeError("elements must be a sequence of (node_a, node_b) pairs")
+    out = []
+    for e in elements:
+        if isinstance(e, str) or not isinstance(e, Sequence | np.ndarray) or len(e) != 2:
+            raise ValueError(f"elements must contain node-name pairs, got {e!r}")
+        a, b = str(e[0]), str(e[1])
+        if nodes is not None and (a not in nodes or b not in nodes):
+            raise ValueError(f"elements: pair {e!r} names a node missing from nodes")
+        out.append((a, b))
+    return tuple(out)

@@ -15,7 +15,6 @@ with ``omega`` in rad/s; frequencies returned to users in Hz.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from types import MappingProxyType
 
 import numpy as np
 import scipy.sparse as sp
@@ -27,7 +26,9 @@ from sdctrl.fe import _static as statics
 from sdctrl.fe._eigen import RIGID_RTOL
 from sdctrl.fe._groups import Assembly, ElementGroups
 from sdctrl.fe._fe_checks import (
+    check_elements,
     check_matrix,
+    check_nodes,
     check_positive_definite,
     dof_indices,
     label_list,
@@ -107,29 +108,8 @@ class FEModel(ElementGroups):
                 if X is not None:
                     X.setflags(write=False)
         labels = check_labels(dofs, N, "dofs", "q")
-        node_map = None
-        if nodes is not None:
-            if not isinstance(nodes, Mapping):
-                raise TypeError(f"nodes must be a mapping name -> (x, y, z), got "
-                                f"{type(nodes).__name__}")
-            node_map = {}
-            for name, xyz in nodes.items():
-                v = as_array(xyz, f"nodes[{name!r}]", shape=(3,))
-                node_map[str(name)] = tuple(float(t) for t in v)
-            node_map = MappingProxyType(node_map)
-        elem = None
-        if elements is not None:
-            if isinstance(elements, str) or not isinstance(elements, Sequence | np.ndarray):
-                raise TypeError("elements must be a sequence of (node_a, node_b) pairs")
-            elem = []
-            for e in elements:
-                if isinstance(e, str) or not isinstance(e, Sequence | np.ndarray) or len(e) != 2:
-                    raise ValueError(f"elements must contain node-name pairs, got {e!r}")
-                a, b = str(e[0]), str(e[1])
-                if node_map is not None and (a not in node_map or b not in node_map):
-                    raise ValueError(f"elements: pair {e!r} names a node missing from nodes")
-                elem.append((a, b))
-            elem = tuple(elem)
+        node_map = check_nodes(nodes)
+        elem = check_elements(elements, node_map)
         if assembly is not None and (not isinstance(assembly, Assembly) or assembly.N != N):
             raise ValueError(f"assembly must be the Assembly record of a model of N={N} DOFs")
         sets = object.__setattr__
