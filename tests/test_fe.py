@@ -359,3 +359,16 @@ def test_free_structure_modal_model_with_static_modes():
     # correction modes are mass-orthogonal to the rigid-body modes (inertia relief)
     R = fe.rigid_modes()
     assert np.abs(R.T @ (fe.M @ nm.shapes[:, 9:])).max() < 1e-8
+
+
+@pytest.mark.parametrize("sigma", [1e300, -1e300, 1e40])
+def test_sparse_modes_far_shift_is_a_value_error_with_advice(sigma):
+    """Issue 25: sigma far outside the spectrum raised ArpackError("Starting vector is zero")."""
+    n = 30
+    K = sp.diags([2 * np.ones(n), -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr() * 1e4
+    fe = sd.FEModel(sp.eye(n).tocsr(), K)
+    with pytest.raises(ValueError, match=r"sigma = .* \(rad/s\)\^2 .*\(2 pi f\)\^2"):
+        fe.modes(3, "sparse", sigma=sigma)
+    f, _ = fe.modes(3, "sparse", sigma=-1.0)                # a shift below the spectrum works
+    lam = 2e4 * (1 - np.cos(np.arange(1, n + 1) * np.pi / (n + 1)))
+    np.testing.assert_allclose(np.sort(f), np.sqrt(np.sort(lam)[:3]) / (2 * np.pi), rtol=1e-10)

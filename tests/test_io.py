@@ -147,13 +147,16 @@ def test_uff_any_label_round_trips(tmp_path, binary):
     assert back.collocated == ()
 
 
-def test_uff_too_long_labels_warn_and_fall_back(tmp_path):
+def test_uff_too_long_labels_refused_up_front(tmp_path):
+    """A round trip keeps what it is given or refuses it: no silent fall back to node numbers."""
     frf = _small(1, 1, sensors=["s" * 75], actuators=["N3.y"])
-    with pytest.warns(UserWarning, match="too long for a UFF ID line"):
+    with pytest.raises(ValueError, match=r"frf labels .* too long for a UFF ID line \(\d+ "
+                                         r"characters encoded, at most 80\).*sdctrl.save"):
         sd.write_uff(frf, tmp_path / "long.uff")
-    back = sd.read_uff(tmp_path / "long.uff")
-    assert back.sensors == ("N1",) and back.actuators == ("N3.y",)
-    assert np.array_equal(back.H, frf.H)
+    assert not (tmp_path / "long.uff").exists()
+    ok = _small(1, 1, sensors=["s" * 40], actuators=["N3.y"])
+    sd.write_uff(ok, tmp_path / "ok.uff")
+    assert sd.read_uff(tmp_path / "ok.uff").sensors == ("s" * 40,)
     with pytest.raises(ValueError, match="cannot be encoded"):
         sd.write_uff(_small(1, 1, sensors=["\ud800"]), tmp_path / "bad.uff")
 
@@ -216,11 +219,20 @@ def test_uff_ascii_even_axis_exact(tmp_path):
             sd.read_uff(tmp_path / "even.uff")
 
 
-def test_uff_units_that_do_not_fit_are_not_stored(tmp_path):
-    frf = _small(1, 1, units="a very long units label, m/s^2/N")
-    with pytest.warns(UserWarning, match="units .* not stored"):
-        sd.write_uff(frf, tmp_path / "u.uff")
-    assert sd.read_uff(tmp_path / "u.uff").units is None
+@pytest.mark.parametrize("units", ["a very long units label, m/s^2/N", "m/s^2\n/N", " m/N"])
+def test_uff_units_that_do_not_fit_are_refused(tmp_path, units):
+    frf = _small(1, 1, units=units)
+    for binary in (True, False):
+        with pytest.raises(ValueError, match="frf.units .* at most 20 printable ASCII"):
+            sd.write_uff(frf, tmp_path / "u.uff", binary=binary)
+    sd.write_uff(_small(1, 1, units="m/s^2/N"), tmp_path / "v.uff")
+    assert sd.read_uff(tmp_path / "v.uff").units == "m/s^2/N"
+
+
+def test_read_uff_on_an_npz_points_to_load(tmp_path):
+    path = sd.save(_small(1, 1), tmp_path / "f")
+    with pytest.raises(ValueError, match=r"f\.npz.* zip archive .*sdctrl\.load"):
+        sd.read_uff(path)
 
 
 # ------------------------------------------------------------------------------------------
@@ -268,7 +280,8 @@ def test_uff_foreign_truncated_inside_a_record_refused(tmp_path):
     assert sd.read_uff(other).H.shape == (8, 2, 2)
     raw = other.read_bytes()
     other.write_bytes(raw[:int(0.3 * len(raw))])
-    with pytest.raises(ValueError, match="not terminated"):
+    with pytest.raises(ValueError, match=r"foreign.uff.*block opened by the '    -1' line \d+ "
+                                         r"is not closed"):
         sd.read_uff(other)
 
 

@@ -108,18 +108,18 @@ def _units(frf: FRF) -> str:
     if not u:
         return "NONE"
     if len(u) > 20 or u != u.strip() or not all(" " <= ch <= "~" for ch in u):
-        warnings.warn(f"units {u!r} not stored: a UFF units label holds at most 20 printable "
-                      "ASCII characters", stacklevel=4)
-        return "NONE"
+        raise ValueError(f"frf.units {u!r} cannot be written to UFF: a UFF units label holds at "
+                         "most 20 printable ASCII characters without leading or trailing blanks "
+                         "(build the FRF with shorter units, or save it with sdctrl.save)")
     return u
 
 
 def _id2(sensor: str, actuator: str) -> str:
     id2 = f"{_ID_PREFIX}{_escape(sensor, 'sensor')}|{_escape(actuator, 'actuator')}"
     if len(id2) > _LINE:
-        warnings.warn(f"labels of ({sensor!r}, {actuator!r}) are too long for a UFF ID line "
-                      f"({_LINE} characters); only node/direction are stored", stacklevel=4)
-        return "NONE"
+        raise ValueError(f"frf labels ({sensor!r}, {actuator!r}) are too long for a UFF ID line "
+                         f"({len(id2)} characters encoded, at most {_LINE}): shorten the sensor "
+                         "and actuator labels, or save the FRF with sdctrl.save")
     return id2
 
 
@@ -237,8 +237,10 @@ def _blocks(raw: bytes, path: str) -> int:
             marks.append(i)
         i = raw.find(b"    -1", i + 1)
     if len(marks) % 2:
-        raise ValueError(f"file {path!r}: dataset {len(marks) // 2 + 1} is not terminated "
-                         "(truncated or damaged UFF file)")
+        line = raw.count(b"\n", 0, marks[-1]) + 1
+        raise ValueError(f"file {path!r}: the UFF block opened by the '    -1' line {line} is "
+                         f"not closed by another '    -1' line ({len(marks) // 2} complete "
+                         "blocks before it): the file is truncated or damaged")
     edges = [0] + [m + d for pair in zip(marks[::2], marks[1::2]) for m, d in
                    zip(pair, (0, 6))] + [len(raw)]
     for k in range(0, len(edges), 2):
@@ -253,6 +255,9 @@ def _read_sets(path: str) -> list[dict]:
 
     with open_regular(path) as fh:
         raw = fh.read()
+    if raw[:4] == b"PK\x03\x04":
+        raise ValueError(f"file {path!r} is a zip archive (an .npz file), not a UFF file: read "
+                         "it with sdctrl.load")
     n = _blocks(raw, path)
     try:
         uff = pyuff.UFF(path)

@@ -101,8 +101,14 @@ def eigensolve(K, M, n: int, method: str, sigma: float | None = None):
         if n >= N - 1:
             raise ValueError(f"n must be < N - 1 = {N - 1} for the sparse eigensolver, "
                              f"got {n}; use method='dense'")
+        median, scale = diagonal_scale(K, M)
         if sigma is None:
-            sigma = -1e-6 * diagonal_scale(K, M)[0]
+            sigma = -1e-6 * median
+        elif abs(sigma) > 1e12 * scale:
+            raise ValueError(f"sigma = {sigma:g} (rad/s)^2 is {abs(sigma) / scale:.1e} times the "
+                             "model's own eigenvalue scale (diag K / diag M): K - sigma M is then "
+                             "sigma M to machine precision; give sigma near the squared circular "
+                             "frequency (2 pi f)^2 of the wanted modes, or leave it None")
         lam, phi = _sparse(K, M, n, float(sigma))
     order = np.argsort(lam)
     lam, phi = lam[order], phi[:, order]
@@ -159,9 +165,14 @@ def _sparse(K, M, n, sigma):
     v0 = np.random.default_rng(0).standard_normal(N)
     K = sp.csc_matrix(K)
     M = sp.csc_matrix(M)
-    lam, phi = spla.eigsh(K, k=n, M=M, sigma=sigma, which="LM", v0=v0,
-                          OPinv=shift_invert(K, M, sigma),
-                          ncv=min(N, max(2 * n + 1, n + 20)))
+    try:
+        lam, phi = spla.eigsh(K, k=n, M=M, sigma=sigma, which="LM", v0=v0,
+                              OPinv=shift_invert(K, M, sigma),
+                              ncv=min(N, max(2 * n + 1, n + 20)))
+    except spla.ArpackError as exc:
+        raise ValueError(f"the sparse eigensolver failed for n={n}, sigma={sigma:g} (rad/s)^2 "
+                         f"({exc}): try sigma nearer the wanted modes' (2 pi f)^2, fewer modes, "
+                         "or method='dense' for a small model") from exc
     # Rayleigh-Ritz clean-up: exact M-orthonormality, accurate eigenvalues
     Kr = phi.T @ (K @ phi)
     Mr = phi.T @ (M @ phi)
