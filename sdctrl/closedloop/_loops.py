@@ -19,7 +19,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from sdctrl._lib.bandint import band_integral
+from sdctrl._lib.bandint import band_integral, band_integral_undamped
 from sdctrl._lib.validate import (
     as_array,
     as_statespace,
@@ -54,16 +54,35 @@ def _mats(G):
     return A, B, C, D
 
 
-def _check_stable(A: np.ndarray, what: str = "sys") -> None:
+#: undamped poles: |Re p| below this fraction of the largest |p| (a defective double pole at 0,
+#: a rigid-body mode, splits by about sqrt(machine epsilon) in floating point)
+AXIS_RTOL = 1e-7
+
+
+def _check_poles(A: np.ndarray, w1: float, w2: float, what: str = "sys"):
+    """Refuse poles that make the band RMS infinite or meaningless; returns None, or the
+    predicate ``(re, im) -> bool`` of the undamped poles (imaginary axis) outside the band."""
     if A.shape[0] == 0:
-        return
+        return None
     lam = np.linalg.eigvals(A)
-    scale = max(np.abs(lam).max(), 1.0)
-    if np.any(lam.real >= -1e-13 * scale):
-        worst = lam[np.argmax(lam.real)]
-        raise ValueError(f"{what} must be asymptotically stable for a finite RMS response "
-                         f"(pole {worst:.4g} rad/s); damp rigid-body modes or close the loop "
-                         "first")
+    tol = AXIS_RTOL * max(np.abs(lam).max(), 1.0)
+    axis = np.abs(lam.real) <= tol
+    unstable = (lam.real > 0) & ~axis
+    if np.any(unstable):
+        worst = lam[np.argmax(np.where(unstable, lam.real, -np.inf))]
+        raise ValueError(f"{what} must be stable for a finite RMS response (pole {worst:.4g} "
+                         "rad/s in the right half-plane); close a stabilising loop first")
+    if not np.any(axis):
+        return None
+    w_axis = np.abs(lam[axis].imag)
+    inside = (w_axis >= w1 - tol) & (w_axis <= w2 + tol)
+    if np.any(inside) or np.isinf(w2):
+        f = w_axis[inside] if np.any(inside) else w_axis
+        raise ValueError(f"{what} has undamped poles (on the imaginary axis) at "
+                         f"{np.unique((f / (2 * np.pi)).round(6))[:5]} Hz: their band RMS is "
+                         f"infinite over ({w1 / (2 * np.pi):g}, {w2 / (2 * np.pi):g}) Hz; give "
+                         "a finite band that excludes them, or damp them (close the loop) first")
+    return lambda re, im: np.abs(re) <= tol
 
 
 # ----------------------------------------------------------------------------------------
@@ -89,8 +108,10 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     Parameters
     ----------
     sys : control.StateSpace or model with ``to_statespace()``
-        Continuous-time, asymptotically stable system (models are taken with displacement
-        outputs).
+        Continuous-time stable system (models are taken with displacement outputs).  Undamped
+        poles (rigid-body modes, the double integrators of a residual mass, undamped modes)
+        are allowed outside a finite band: the closed form is then taken with those poles
+        moved slightly left and extrapolated back (``sdctrl._lib.bandint``).
     band : (float, float)
         ``(fmin, fmax)`` in Hz, ``0 <= fmin < fmax``; ``fmax`` may be ``numpy.inf``.
     psd : float or array_like, shape (n_inputs,)
@@ -106,8 +127,8 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     TypeError
         ``sys`` is not a system.
     ValueError
-        Discrete-time or unstable system, bad band or psd, or a feedthrough ``D`` with an
-        infinite band (infinite RMS).
+        Discrete-time or unstable system, undamped poles inside the band (or an infinite
+        band), bad band or psd, or a feedthrough ``D`` with an infinite band (infinite RMS).
 
     Notes
     -----
@@ -129,11 +150,16 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     lo, hi = check_band(band, infinite=True)
     A, B, C, D = _mats(G)
     S = _psd(psd, B.shape[1])
-    _check_stable(A)
     w1, w2 = 2 * np.pi * lo, 2 * np.pi * hi
+    axis = _check_poles(A, w1, w2)
     try:
         with np.errstate(all="ignore"):
-            return _rms(A, B, C, D, S, w1, w2)
+            if axis is None:
+                return _rms(A, B, C, D, S, w1, w2)
+            W = band_integral_undamped(A, B, C, D, S, w1, w2, axis)
+            var = np.real(np.diag(W)) / (2 * np.pi)
+            check_finite_result(var, "the RMS", "sys, band or psd")
+            return np.sqrt(np.clip(var, 0.0, None))
     except np.linalg.LinAlgError as exc:
         raise ValueError(f"sys: the band integral failed ({exc}); the system is too badly "
                          "conditioned (scale its states or matrices)") from None
