@@ -159,3 +159,30 @@ def test_strut_plant_name_collision_and_gains():
         closedloop.strut_controller(kp=1.0, kv="2")
     G = closedloop.feedback(closedloop.strut_plant(nm, s), closedloop.strut_controller(kv=5.0))
     assert np.all(np.linalg.eigvals(G.A).real < 0)
+
+
+def test_first_use_refusals_say_what_to_do(tmp_path):
+    """Issue 25: what a first-time user hit, each refusal naming the argument and the fix."""
+    import sdctrl as sd
+
+    f = np.linspace(1.0, 10.0, 20)
+    H = np.ones((20, 3, 2)) * (1 + 1j)
+    with pytest.raises(ValueError, match=r"sensors must have 3 labels \(one per sensor: axis 1 "
+                                         r"of H\[f, sensor, actuator\]\), got 2 .*transpose"):
+        sd.FRF(f, H, sensors=["a", "b"], actuators=["x", "y", "z"])
+    bad = H.copy()
+    bad[7, 1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"H must contain only finite .* 1 non-finite entry, "
+                                         r"the first .*nan.* at index \(7, 1, 0\)"):
+        sd.FRF(f, bad)
+    missing = tmp_path / "nope.uff"
+    with pytest.raises(FileNotFoundError) as err:
+        sd.read_uff(missing)
+    assert str(err.value).count(str(missing)) == 1          # the path said once
+    frf = sd.testbed_frf(noise=0.0).band(14.0, 20.0)
+    with pytest.raises(ValueError, match=r"poles must be complex poles in rad/s.*Hz\?"):
+        sd.identify(frf, poles=[15.8, 16.0])
+    with pytest.raises(ValueError, match=r"poles must be stable \(Re < 0, rad/s\)"):
+        sd.identify(frf, poles=[0.1 + 2j * np.pi * 15.8])
+    with pytest.raises(ValueError, match=r"frf.H is real-valued .*magnitude and phase"):
+        sd.identify(sd.FRF(frf.freq, np.abs(frf.H)))

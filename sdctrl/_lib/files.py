@@ -24,6 +24,9 @@ class MissingFileError(FileNotFoundError, ValueError):
     """A file to read does not exist: both a ``FileNotFoundError`` (an ``OSError``) and a
     ``ValueError``, so either ``except`` clause catches it."""
 
+    def __str__(self) -> str:                 # the message names the path once
+        return str(self.strerror)
+
 
 def check_path(path, name: str = "path") -> str:
     """``path`` as a ``str``; TypeError unless it is a ``str`` or ``os.PathLike`` of ``str``."""

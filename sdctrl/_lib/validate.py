@@ -79,7 +79,11 @@ def as_array(x, name: str, *, ndim: int | tuple[int, ...] | None = None, dtype=f
         want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
     if finite and arr.size and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+        bad = ~np.isfinite(arr)
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf): "
+                         f"{int(bad.sum())} non-finite entr{'y' if bad.sum() == 1 else 'ies'}, "
+                         f"the first {arr[first]} at index {first if arr.ndim > 1 else first[0]}")
     if not arr.flags.writeable:                     # e.g. a broadcast view: hand out a copy
         arr = arr.copy()
     return arr
@@ -261,8 +265,12 @@ def check_labels(labels, n: int, name: str, default_prefix: str) -> tuple[str, .
         raise TypeError(f"{name} must be a sequence of {n} strings, got {type(labels).__name__}")
     out = tuple(labels)
     if len(out) != n:
-        raise ValueError(f"{name} must have {n} labels (one per {default_prefix.rstrip('_')}), "
-                         f"got {len(out)}")
+        what = {"s": "sensor: axis 1 of H[f, sensor, actuator]",
+                "a": "actuator: axis 2 of H[f, sensor, actuator]"}.get(
+                    default_prefix, default_prefix.rstrip("_"))
+        hint = (" (sensor and actuator axes of H swapped? H.transpose(0, 2, 1))"
+                if default_prefix in ("s", "a") else "")
+        raise ValueError(f"{name} must have {n} labels (one per {what}), got {len(out)}{hint}")
     for lab in out:
         if not isinstance(lab, str | np.str_):
             raise TypeError(f"{name} must contain strings, got {type(lab).__name__}")

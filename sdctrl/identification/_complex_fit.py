@@ -273,6 +273,9 @@ def _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max
             raise ValueError(f"{name} must be a positive number, got {val!r}")
     if not np.all(np.isfinite(frf.H)):          # FRF validates, but keep the promise here too
         raise ValueError("frf.H must contain only finite values (no NaN or inf)")
+    if frf.H.size and not np.any(frf.H.imag):
+        raise ValueError("frf.H is real-valued (magnitudes only?): identification needs the "
+                         "complex FRF, magnitude and phase (H = |H| exp(j phase))")
     return max_iter
 
 
@@ -292,10 +295,15 @@ def _given_poles(poles, in_band, fband):
     if lam0.size == 0:
         raise ValueError("poles must contain at least one pole (or be None for automatic "
                          "selection)")
+    if np.all(lam0.imag == 0) and np.all(lam0.real > 0):
+        raise ValueError("poles must be complex poles in rad/s, -zeta w + j w sqrt(1 - zeta^2) "
+                         f"with w = 2 pi f, got real positive values {lam0.real[:4]}: "
+                         "frequencies in Hz? (e.g. poles = -0.01 * w + 1j * w, w = 2 * pi * f)")
     if np.any(lam0.imag <= 0):
-        raise ValueError("poles must lie in the upper half-plane (Im > 0), one per mode")
+        raise ValueError("poles must lie in the upper half-plane (Im > 0, rad/s), one per mode")
     if np.any(lam0.real >= 0):
-        raise ValueError("poles must be stable (Re < 0): initial poles with Re >= 0 given")
+        raise ValueError("poles must be stable (Re < 0, rad/s): initial poles with Re >= 0 "
+                         "given (a pole is -zeta w + j w sqrt(1 - zeta^2), w = 2 pi f)")
     w0 = np.abs(lam0)
     z0 = np.clip(-lam0.real / w0, ZETA_MIN * 1.01, ZETA_MAX * 0.99)
     f0 = w0 / (2 * np.pi)
