@@ -91,7 +91,7 @@ def test_bad_snapshot_input(tmp_path):
 USER_TEST = '''
 import control
 import numpy as np
-from sdctrl.closedloop._loops import feedback
+from sdctrl import feedback
 
 GAIN = {gain}
 
@@ -104,18 +104,28 @@ def test_loop(rms_snapshot):
 '''
 
 
-def test_fixture_in_a_user_suite(pytester):
+def test_fixture_in_a_user_suite(pytester, monkeypatch):
     """A user's suite, run by pytest itself (the fixture comes from the pytest11 entry
     point; nothing to configure)."""
     def run(gain, *args):
         pytester.makepyfile(test_user=USER_TEST.format(gain=gain))
-        return pytester.runpytest("-q", "-p", "no:cacheprovider", *args)
+        return pytester.runpytest("-q", "-rs", "-p", "no:cacheprovider", *args)
 
     snap = pytester.path / "rms_snapshots" / "test_user" / "test_loop.json"
+    monkeypatch.delenv("CI", raising=False)
     first = run(1.0)
-    first.assert_outcomes(failed=1)
-    first.stdout.fnmatch_lines(["*did not exist and was written*"])
+    first.assert_outcomes(skipped=1)                    # recorded: skipped with the reason
+    first.stdout.fnmatch_lines(["*RMS snapshot recorded: *test_loop.json (check it in*"])
+    assert "Compare with the stored snapshot" not in first.stdout.str()   # no docstring dump
     assert snap.exists()
+    snap.unlink()
+    monkeypatch.setenv("CI", "true")
+    under_ci = run(1.0)
+    under_ci.assert_outcomes(failed=1)
+    under_ci.stdout.fnmatch_lines(["*missing under CI*"])
+    assert "Compare with the stored snapshot" not in under_ci.stdout.str()
+    assert snap.exists()
+    monkeypatch.delenv("CI")
     run(1.0).assert_outcomes(passed=1)
     changed = run(1.5)
     changed.assert_outcomes(failed=1)
