@@ -210,6 +210,27 @@ def test_identify_own_data(tmp_path):
     assert bad.returncode == 2 and "missing.uff" in bad.stderr
 
 
+def test_identify_exits_0_when_the_model_exists_and_reports_a_failed_step(tmp_path):
+    """Issue 26: a step after identification that fails (normal modes of a test with one
+    sensor and six modes) is reported with its reason, never a traceback, and the command
+    exits 0 because the identified model it was asked for exists."""
+    frf = sd.testbed_frf(n=400, band=(8.0, 20.0), noise=0.01, seed=2)
+    s, a = frf.collocated[0]
+    one = sd.FRF(frf.freq, frf.H[:, [s]][:, :, [a]], quantity=frf.quantity,
+                 sensors=[frf.sensors[s]], actuators=[frf.actuators[a]], collocated=[(0, 0)])
+    sd.save(one, tmp_path / "one")
+    proc = _sdctrl("identify", str(tmp_path / "one.npz"), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "normal modes: failed" in proc.stdout
+    out = tmp_path / "one-sdctrl"
+    html = (out / "report.html").read_text()
+    sec = _section(html, "normal_modes")
+    assert "failed" in sec and "fewer sensors" in sec
+    assert "Traceback" not in html and 'File "' not in html
+    assert sd.load(out / "identified.npz").n > 0
+    assert not (out / "normal_modes.npz").exists()
+
+
 def test_help_and_version_are_plain_text():
     proc = _sdctrl("--version")
     assert proc.returncode == 0 and proc.stdout.strip() == f"sdctrl {sd.__version__}"

@@ -561,3 +561,16 @@ def test_progress_bar_and_interrupt(monkeypatch, capsys):
     with pytest.warns(IdentificationWarning, match="interrupted"):
         cm = sd.identify(frf, band=BAND, progress=False)
     assert cm.info["interrupted"] and cm.n > 0
+
+
+def test_a_poor_fit_warns_where_the_error_lies_and_what_to_try():
+    """Issue 26: a fit error above 10% is never silent; a good fit says nothing."""
+    frf = sd.testbed_frf(noise=0.0).band(12.0, 20.0)
+    with pytest.warns(sd.identification.IdentificationWarning,
+                      match=r"relative fit error of 8\d\.\d% \(above 10%\); \d+% of it lies in "
+                            r"[\d.]+-[\d.]+ Hz.*largest channels .*Try band="):
+        cm = sd.identify(frf, poles=[-0.01 * 2 * np.pi * 15.8 + 2j * np.pi * 15.8])
+    assert cm.cost > 0.8
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sd.identification.IdentificationWarning)
+        assert sd.identify(frf).cost < 1e-3

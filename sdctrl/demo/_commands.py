@@ -24,8 +24,9 @@ def _failed_section(doc, entry) -> None:
     elif entry.status == "skipped":
         s.paragraph(f"This step was skipped: {entry.message}.")
     else:
-        s.paragraph(f"This step failed after {entry.seconds:.1f} s.")
-        s.error(entry.message + ("\n\n" + entry.trace if entry.trace else ""))
+        s.paragraph(f"This step failed after {entry.seconds:.1f} s; the steps before it stand "
+                    "and their models are saved.")
+        s.error(entry.message)
 
 
 def _warnings_block(section, entry) -> None:
@@ -243,7 +244,8 @@ def identify_report(path: str, band=None, out: str | None = None, quiet: bool = 
     Returns
     -------
     int
-        0 when identification (and normal modes, when the test has collocated pairs) ran.
+        0 when the identified model exists (each step's status, and the reason of a step
+        that failed, are in the report); 1 when nothing usable was produced.
     """
     agg_backend()
     if out is None:
@@ -271,5 +273,6 @@ def identify_report(path: str, band=None, out: str | None = None, quiet: bool = 
     summary = _summary(log)
     summary["models"] = sorted(models)
     paths = write_outputs(doc, out, models, summary)
-    log.say(f"report: {paths['html']} (total {log.seconds:.1f} s)")
-    return 1 if log.failed else 0
+    status = "; ".join(f"{e.title}: {e.status}" for e in log.entries)
+    log.say(f"report: {paths['html']} ({status}; total {log.seconds:.1f} s)")
+    return 0 if ident is not None else 1

@@ -46,6 +46,7 @@ from sdctrl.identification._residues import (
 )
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
 from sdctrl.identification._selection import AutoSelection
+from sdctrl.identification._quality import fit_quality
 
 __all__ = ["IdentificationWarning", "identify"]
 
@@ -216,7 +217,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             bar.close()
         cm = _final_model(data, fband, Hm, normH2, (w, z, side), model, asym, info,
                           messages, e)
-    for msg in messages:
+    for msg in messages + fit_quality(cm, data):
         warnings.warn(msg, IdentificationWarning, stacklevel=2)
     return cm
 
