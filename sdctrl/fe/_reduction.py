@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array, check_finite_result
 from sdctrl.fe._static import principal_static_basis
 
@@ -146,7 +147,16 @@ def full_frf(fe, f, B, Cm, quantity: str) -> np.ndarray:
     N = fe.N
     H = np.empty((f.size, Cm.shape[0], B.shape[1]), complex)
     chunk = max(1, int(1.5e7 // (N * N)))          # bound the memory of a batch
-    for i in range(0, f.size, chunk):               # batched over frequency lines
+    with single_thread():                           # batched small solves: one BLAS thread
+        _solve_lines(H, K, M, C, w, B, Cm, chunk)
+    H = H * ((1j * w) ** QUANTITY_POWER[quantity])[:, None, None]
+    check_finite_result(H, "the FRF", "freq")
+    return H
+
+
+def _solve_lines(H, K, M, C, w, B, Cm, chunk: int) -> None:
+    """``H[l] = Cm (K - w_l^2 M + j w_l C)^-1 B``, batched over lines (in place)."""
+    for i in range(0, w.size, chunk):               # batched over frequency lines
         ww = w[i:i + chunk, None, None]
         Z = K - ww**2 * M + 1j * ww * C
         try:
@@ -157,6 +167,3 @@ def full_frf(fe, f, B, Cm, quantity: str) -> np.ndarray:
                              "finite at some lines of freq: freq (Hz) is out of the range "
                              "double precision can solve for this model") from None
         H[i:i + chunk] = Cm @ X
-    H = H * ((1j * w) ** QUANTITY_POWER[quantity])[:, None, None]
-    check_finite_result(H, "the FRF", "freq")
-    return H
