@@ -12,10 +12,10 @@ truss       the built-in truss, 8-60 Hz (suspension modes far below, a damping-c
 truss_high  the same structure and test over 20-60 Hz: six suspension/plate modes between
             9.5 and 18.6 Hz just below the band
 ladder      a free-free ladder frame on a soft suspension (1-2.5 Hz) tested over 12-90 Hz:
-            two flexible modes just below the band (7.9, 10.1 Hz), one just above (98 Hz)
-plate       a cantilevered grid of beams tested over 20-62 Hz, modes 6% below and 4% above
-            the band edges, a close pair at 26.3/28.0 Hz
-cluster     a hub with four mistuned blades (four modes within 1.3% near 10.7 Hz) and a
+            two flexible modes just below the band (8.0, 10.0 Hz), one just above (98 Hz)
+plate       a cantilevered, slightly twisted grid of beams tested over 20-62 Hz: modes 6%
+            below (18.8 Hz) and 4% above (64.6 Hz) the band edges, a pair at 26.3/28.3 Hz
+cluster     a hub with four mistuned blades (four modes within 1.4% near 10.2 Hz) and a
             light local resonator (37 Hz), tested over 6-45 Hz
 ========== ================================================================================
 

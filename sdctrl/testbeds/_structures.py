@@ -29,7 +29,8 @@ def _materials(stiff: float) -> dict:
 def ladder(rung_stiffness: float = 1.0, payload_mass: float = 1.0):
     """A free-free ladder frame on a soft suspension (a boom with four payloads).
 
-    Two rails (x, 2.4 m, 8 segments) 0.5 m apart in y joined by 9 rungs; four payload
+    Two rails (x, 2.4 m, 8 segments) 0.5 m apart in y (the right one 40 mm higher, so
+    that no plane of symmetry decouples any sensor from any shaker) joined by 9 rungs; four payload
     masses (2 kg, small inertia) on the rails at x = 0.6 and 1.8 m; four soft springs to
     ground (z, 300 N/m; x and y, 150 N/m) at the corners give six suspension modes near
     1-2 Hz, far below the first flexible mode; Rayleigh damping and two dashpots across
@@ -50,9 +51,9 @@ def ladder(rung_stiffness: float = 1.0, payload_mass: float = 1.0):
 
     n, L, W = 8, 2.4, 0.5
     nodes, els = {}, []
-    for i in range(n + 1):
+    for i in range(n + 1):                   # the right rail 40 mm higher: no symmetry plane
         nodes[f"L{i}"] = (i * L / n, 0.0, 0.0)
-        nodes[f"R{i}"] = (i * L / n, W, 0.0)
+        nodes[f"R{i}"] = (i * L / n, W, 0.04)
     for i in range(n):
         for side in "LR":
             els.append(("beam", f"{side}{i}", f"{side}{i + 1}", "al", "rail"))
@@ -72,7 +73,8 @@ def ladder(rung_stiffness: float = 1.0, payload_mass: float = 1.0):
 def plate_grid(edge_stiffness: float = 1.0, tip_mass: float = 1.0):
     """A cantilevered grid of beams (a plate-like panel clamped along one edge).
 
-    5 x 4 nodes, 0.25 m apart, beams along x and y; clamped at x = 0; two tip masses
+    5 x 4 nodes, 0.25 m apart, beams along x and y, slightly twisted (15 mm at the free
+    corners, so that bending and in-plane motions couple); clamped at x = 0; two tip masses
     (0.4 kg) at the free corners; Rayleigh damping and a dashpot between the free corners.
 
     Parameters
@@ -91,9 +93,9 @@ def plate_grid(edge_stiffness: float = 1.0, tip_mass: float = 1.0):
 
     nx, ny, d = 5, 4, 0.25
     nodes, els = {}, []
-    for i in range(nx):
+    for i in range(nx):                      # a slight twist: no symmetry plane
         for j in range(ny):
-            nodes[f"G{i}_{j}"] = (i * d, j * d, 0.0)
+            nodes[f"G{i}_{j}"] = (i * d, j * d, 0.03 * (i / (nx - 1)) * (j / (ny - 1) - 0.5))
     for i in range(nx):
         for j in range(ny):
             if i + 1 < nx:
@@ -120,7 +122,8 @@ def cluster(hub_stiffness: float = 1.0, blade_mass: float = 1.0):
     resonator (a local mode).
 
     A clamped-clamped hub beam (x, 1.2 m, 6 segments) carries four cantilever blades
-    (z, 0.3 m, 3 segments) with tip masses of 0.25 kg mistuned by
+    (about z, 0.3 m, 3 segments, leaning a few degrees in x and y) with tip masses of 0.25 kg
+    mistuned by
     :data:`BLADE_MISTUNING`: their first bending modes form a cluster within a few
     percent.  A 0.05 kg mass on a soft spring (y) at the hub's centre is a local mode.
     Rayleigh damping and a dashpot between two blade tips.
@@ -146,9 +149,10 @@ def cluster(hub_stiffness: float = 1.0, blade_mass: float = 1.0):
     for k, (root, dm) in enumerate(zip(("H1", "H2", "H4", "H5"), BLADE_MISTUNING), start=1):
         x = nodes[root][0]
         prev = root
+        lean = 0.02 * (-1) ** k                 # blades lean in x and y: no symmetry plane
         for s in (1, 2, 3):
             name = f"T{k}" if s == 3 else f"B{k}_{s}"
-            nodes[name] = (x, 0.0, 0.1 * s)
+            nodes[name] = (x + lean * s, 0.015 * s, 0.1 * s)
             els.append(("beam", prev, name, "al", "blade"))
             prev = name
         els.append(("mass", f"T{k}", 0.25 * (1 + dm) * blade_mass))
