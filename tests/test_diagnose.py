@@ -17,6 +17,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import functools
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -372,3 +373,28 @@ def test_identified_complex_mode_model_and_a_delay():
         s = 2j * np.pi * f
         want = np.asarray(G0(s)) * np.exp(-s * d.model.tau)
         assert np.abs(np.asarray(G(s)) - want).max() < 2e-3 * np.abs(want).max()
+
+
+def _plain(nm):
+    """The model as a user may hold it: matrices and labels, no shapes on FE DOFs."""
+    return sd.NormalModeModel(nm.Omega, nm.Gamma, nm.cphi, nm.phib, E=nm.E,
+                              sensors=nm.sensors, actuators=nm.actuators)
+
+
+@pytest.mark.parametrize("name", ["mass", "dashpot", "bar"])
+def test_a_plain_normal_mode_model_is_placed_on_the_fe_model(name):
+    """Issue 23: a normal-mode model without shapes whose labels are FE DOFs is given shapes on
+    the FE model (expansion 4.7 of a hybrid model) and the physical effect is found as with
+    the FE-derived model's own shapes: kind, nodes, size within 3%, error / 30."""
+    case = CASES[name]
+    plain = _plain(nominal())
+    assert plain.shapes is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                      # no "physical candidates need..."
+        d = sd.diagnose(plain, clean_data(case), FE, max_effects=1, progress=False)
+    assert d.built and "shapes on the FE model's 246 DOFs" in d.built
+    assert "Model used: its 34 modes given shapes" in d.report()
+    assert d.error_before == pytest.approx(diagnosis(case, max_effects=1).error_before, rel=1e-9)
+    rel = _check_top(d, case, 0.03)
+    assert d.effects[0].error_after <= d.error_before / 30
+    assert abs(rel) < 0.03

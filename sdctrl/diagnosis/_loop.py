@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from dataclasses import replace
 
 import numpy as np
 
@@ -62,10 +63,57 @@ def _check(model, frf, fe, executor, max_effects, noise, reach):
     physical = fe is not None and isinstance(inner, NormalModeModel)
     if physical and (inner.shapes is None or fe.nodes is None):
         warnings.warn("diagnose: physical candidates (dampers, springs, masses, resonators) need "
-                      "a model with shapes on fe's DOFs and fe with node coordinates; build a "
-                      "hybrid model (sd.hybrid) from identified modes", stacklevel=3)
+                      "fe with node coordinates and a model whose shapes live on fe's DOFs (or "
+                      "whose sensor/actuator labels are fe's DOF labels, so that it can be "
+                      "placed on fe); build a hybrid model (sd.hybrid) from identified modes",
+                      stacklevel=3)
         physical = False
     return physical
+
+
+def _on_fe(model, fe):
+    """``(model, what was built)``: a model without shapes whose sensor and actuator labels are
+    DOF labels of ``fe`` is placed on ``fe`` as a hybrid model (expansion 4.7, as
+    :func:`sdctrl.hybrid` does); a complex-mode model through its normal modes (3.3) first.
+    Unchanged, with None, when that is not possible or not needed."""
+    from sdctrl.hybrids import hybrid
+    from sdctrl.identification import ComplexModeModel, normal_modes
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    delayed = isinstance(model, DelayedModel)
+    inner = model.model if delayed else model
+    if fe is None or fe.nodes is None or getattr(inner, "shapes", None) is not None:
+        return model, None
+    dofs = set(fe.dofs)
+    if not (set(inner.sensors) <= dofs and set(inner.actuators) <= dofs):
+        return model, None
+    what = ""
+    if isinstance(inner, ComplexModeModel):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                inner = normal_modes(inner)
+        except ValueError as exc:
+            return model, f"not placed on the FE model: its normal modes cannot be formed ({exc})"
+        what = f"normal modes of the complex-mode model (3.3, {inner.n} modes), then "
+    if not isinstance(inner, NormalModeModel):
+        return model, None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hy = hybrid(fe, inner, list(inner.sensors), list(inner.actuators))
+    w, wh = np.diag(inner.Omega), np.diag(hy.Omega)
+    idx = np.array([int(np.argmin(np.abs(wh - x))) for x in w], dtype=int)
+    if np.allclose(wh[idx], w, rtol=1e-12, atol=0) and np.unique(idx).size == idx.size:
+        placed = inner.replace(shapes=hy.shapes[:, idx], dofs=hy.dofs)
+        what += (f"its {inner.n} modes given shapes on the FE model's {fe.N} DOFs by the "
+                 "expansion of a hybrid model (4.7, as sd.hybrid does), its response at the "
+                 "tested channels unchanged, so that physical candidates can be placed on it")
+    else:
+        placed = hy
+        what += (f"a hybrid model of its {inner.n} modes on the FE model's {fe.N} DOFs "
+                 "(measured shapes expanded, 4.7, as sd.hybrid does), so that physical "
+                 "candidates can be placed on it")
+    return (DelayedModel(placed, model.tau) if delayed else placed), what
 
 
 def _fe_flexibility(S, placed, model):
@@ -128,8 +176,12 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     ----------
     model : NormalModeModel, ComplexModeModel or DelayedModel
         The model: identified, FE-derived or hybrid.  Physical candidates need ``fe`` and a
-        normal-mode model with ``shapes`` on the FE DOFs (FE-derived or hybrid).  Its
-        sensor/actuator labels must include the data's.
+        normal-mode model with ``shapes`` on the FE DOFs (FE-derived or hybrid); a model
+        without shapes whose sensor and actuator labels are DOF labels of ``fe`` (an
+        identified model, a complex-mode model through its normal modes) is placed on ``fe``
+        first as a hybrid model (4.7, :func:`sdctrl.hybrid`), said in
+        :attr:`Diagnosis.built` and the report.  Its sensor/actuator labels must include the
+        data's.
     frf : FRF
         Measured FRFs (any quantity).
     fe : FEModel, optional
@@ -174,10 +226,23 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     >>> sd.diagnose(nm, frf, fe).effects             # the model's own prediction
     []
     """
+    model, built = _on_fe(_checked_model(model), fe)
     physical = _check(model, frf, fe, executor, max_effects, noise, reach)
     with single_thread():         # small dense kernels: BLAS threads only add contention
-        return _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress,
-                          physical)
+        out = _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress,
+                         physical)
+    return replace(out, built=built) if built else out
+
+
+def _checked_model(model):
+    from sdctrl.identification import ComplexModeModel
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    inner = model.model if isinstance(model, DelayedModel) else model
+    if not isinstance(inner, NormalModeModel | ComplexModeModel):
+        raise TypeError("model must be a NormalModeModel (identified, FE-derived or hybrid), a "
+                        f"ComplexModeModel or a DelayedModel, got {type(model).__name__}")
+    return model
 
 
 def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress, physical):

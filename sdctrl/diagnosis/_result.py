@@ -173,6 +173,10 @@ class Diagnosis:
         hypotheses, ``score`` the extended-BIC gain), best first.
     info : dict
         Counts of candidates, timings, options.
+    built : str or None
+        What :func:`sdctrl.diagnose` built to place the given model on the FE model (a
+        hybrid model of a model without shapes), or why it could not; None when the model
+        was used as given.
     """
 
     model: object
@@ -184,6 +188,7 @@ class Diagnosis:
     noise: float = 0.0
     steps: list = field(default_factory=list)
     info: dict = field(default_factory=dict, repr=False)
+    built: str | None = None
 
     def __post_init__(self):
         if not all(isinstance(e, Effect) for e in self.effects):
@@ -259,6 +264,8 @@ class Diagnosis:
                      if self.error_before > 0 else "The model reproduces the data exactly.")
         lines += ["", f"Noise level (second differences of the residual): {self.noise:.3g}.",
                   ""]
+        if self.built:
+            lines += [f"Model used: {self.built}.", ""]
         if self.effects:
             lines += ["## Effects added", "", self.table(), ""]
         else:
