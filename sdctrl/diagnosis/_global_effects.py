@@ -228,6 +228,8 @@ def fit_free_mode(placed, H) -> dict | None:
     Jr = cost(H + phr[:, None, None] * np.outer(cr, br)[None], placed.Hd)
     if Jr < J:
         wm, zm, c, b, J = wr, zr, cr, br, Jr
+    if zm >= 0.98 * 0.5 or not lo * 1.02 < wm < hi / 1.02:
+        return None           # stuck at a bound: a broadband trend, not a mode (never invented)
     ns, na = X1.shape
     fr = float(wm / (2 * np.pi))
     return proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm)}, J,
