@@ -398,3 +398,11 @@ def test_a_plain_normal_mode_model_is_placed_on_the_fe_model(name):
     rel = _check_top(d, case, 0.03)
     assert d.effects[0].error_after <= d.error_before / 30
     assert abs(rel) < 0.03
+
+
+def test_the_report_quotes_one_noise_level():
+    """Issue 23/25: the report's residual findings use the diagnosis's own noise level."""
+    d = diagnosis(CASES["mass"], 0.01, max_effects=1)
+    quoted = set(re.findall(r"noise level:? ([0-9.e+-]+)", d.report().replace("(second", "")))
+    quoted = {float(q.rstrip(".")) for q in quoted}
+    assert quoted and all(q == pytest.approx(d.noise, rel=5e-3) for q in quoted), quoted

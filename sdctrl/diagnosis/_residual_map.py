@@ -260,7 +260,7 @@ def _half_band(freq, e):
     return (float(freq[i0]), float(freq[i1])), float((i1 - i0 + 1) / e.size)
 
 
-def residual_map(freq, H, Hd, sensors, actuators) -> ResidualMap:
+def residual_map(freq, H, Hd, sensors, actuators, noise: float | None = None) -> ResidualMap:
     """Residual analysis of a prediction against measured FRFs.
 
     Parameters
@@ -271,6 +271,9 @@ def residual_map(freq, H, Hd, sensors, actuators) -> ResidualMap:
         Predicted and measured responses (same quantity).
     sensors, actuators : sequence of str
         Channel labels.
+    noise : float, optional
+        The noise level to compare with (a diagnosis's own, so that its report quotes one);
+        default estimated from this residual's second differences.
 
     Returns
     -------
@@ -283,4 +286,4 @@ def residual_map(freq, H, Hd, sensors, actuators) -> ResidualMap:
     return ResidualMap(np.asarray(freq, float), per_line, a2.mean(axis=0), tuple(sensors),
                        tuple(actuators), float(a2.mean()), float(np.mean(r.real**2)),
                        float(np.linalg.norm(H - Hd) / max(np.linalg.norm(Hd), 1e-300)),
-                       noise_level(r), band, share)
+                       noise_level(r) if noise is None else float(noise), band, share)

@@ -229,7 +229,7 @@ class Diagnosis:
         model = self.model if after else self.initial
         placed = place(model, self.frf)
         return residual_map(placed.freq, placed.response(model), placed.Hd,
-                            placed.sensors, placed.actuators)
+                            placed.sensors, placed.actuators, self.noise)
 
     def table(self) -> str:
         """Markdown table of the effects added.
