@@ -232,7 +232,7 @@ class NormalModes:
     def checks(self) -> list[Check]:
         """Key numbers against the truth."""
         nm = self.nm
-        pd = nm.info.get("positive_definite", {}) if isinstance(nm.info, dict) else {}
+        pd = (nm.properness.positive_definite if nm.properness is not None else None) or {}
         out = [Check("damping matrix positive semi-definite (3.45)",
                      bool(pd.get("damping", True)), True)]
         if self.test is None or nm.n < 2:

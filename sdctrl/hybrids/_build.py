@@ -70,7 +70,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       :meth:`~sdctrl.hybrids._predictions.HybridModel.with_io`).
       ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
       paired FE modes;
-    - out-of-band identified poles (``nm.info["in_band"]`` False) that pair with an FE
+    - out-of-band identified poles (``nm.properness.in_band`` False) that pair with an FE
       mode (MAC >= ``mac_min``) are kept as measured modes; the others (poles that absorb
       what lies beyond the band) are absorbed into the residual terms below
       (``info["absorbed"]``);
@@ -105,8 +105,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         The analytical model (need not be accurate: its shapes span the expansion).
     nm : NormalModeModel
         Identified normal modes (diagonal ``Omega``, rad/s^2; ``Gamma`` rad/s; ``cphi`` at
-        the test sensors; ``E`` and ``F`` residual terms; ``info["band"]`` and
-        ``info["in_band"]`` as :func:`sdctrl.normal_modes` sets them).
+        the test sensors; ``E`` and ``F`` residual terms; ``properness.band`` and
+        ``properness.in_band`` as :func:`sdctrl.normal_modes` sets them).
     sensor_c : array_like, shape (ns, N), or sequence of ns DOF labels
         The test sensors placed on the FE DOFs (rows match ``nm.sensors``).
     actuator_b : array_like, shape (N, na), or sequence of na DOF labels, optional
@@ -256,7 +256,8 @@ def _realise_residual(cphi, w2, phib, kinds, E):
 
 def _warn_left_out(nm) -> None:
     """Poles of the identified model left out of ``nm`` (``normal_modes(cm, modes=...)``)."""
-    hz = np.atleast_1d(np.asarray(nm.info.get("poles_left_out_hz", []), float))
+    left = None if nm.properness is None else nm.properness.poles_left_out_hz
+    hz = np.atleast_1d(np.asarray([] if left is None else left, float))
     if hz.size:
         warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
                       f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
@@ -268,10 +269,16 @@ def _warn_left_out(nm) -> None:
 
 def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:
     """Out-of-band identified poles that pair poorly: absorbed into the residual terms."""
-    ib = nm.info.get("in_band")
-    if ib is None or np.shape(ib) != (nm.n,):
+    ib = _in_band(nm)
+    if ib is None:
         return np.zeros(nm.n, bool)
     return ~np.asarray(ib, bool) & (mac_pairs < mac_min)
+
+
+def _in_band(nm):
+    """Per mode of ``nm``, in the identified band (``nm.properness.in_band``), or None."""
+    ib = None if nm.properness is None else nm.properness.in_band
+    return None if ib is None or np.shape(ib) != (nm.n,) else np.asarray(ib, bool)
 
 
 def _loads(fe, nm, b):
@@ -369,8 +376,8 @@ def _mean_damping(nm, w_id, kept) -> float:
     """Mean damping ratio of the kept in-band measured modes, given to the appended FE
     modes (5.1.1)."""
     use = kept.copy()
-    ib = nm.info.get("in_band")
-    if ib is not None and np.shape(ib) == (nm.n,) and np.any(use & np.asarray(ib, bool)):
+    ib = _in_band(nm)
+    if ib is not None and np.any(use & ib):
         use &= np.asarray(ib, bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         zeta = np.diag(nm.Gamma) / (2 * w_id)

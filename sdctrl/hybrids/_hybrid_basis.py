@@ -179,9 +179,9 @@ def _orthogonal_to(fe, X, w2, S):
 # residual terms at the tested I/O
 # ----------------------------------------------------------------------------------------
 def _grid(nm, w_id):
-    """Frequency lines (rad/s) of the test band: ``nm.info["band"]`` or the measured
+    """Frequency lines (rad/s) of the test band: ``nm.properness.band`` or the measured
     modes' range."""
-    band = nm.info.get("band")
+    band = None if nm.properness is None else nm.properness.band
     if band is None:
         band = (0.8 * w_id.min() / (2 * np.pi), 1.05 * w_id.max() / (2 * np.pi))
     lo, hi = float(band[0]), float(band[1])

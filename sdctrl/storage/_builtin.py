@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from sdctrl.storage._record_codecs import legacy_modal
 from sdctrl.storage._registry import register_attrs
 from sdctrl.storage._values import short
 
@@ -53,14 +54,30 @@ def _build_robust(**values):
     return RobustResult(**values)
 
 
-_MODAL = {k: "f" for k in ("Omega", "Gamma", "cphi", "phib", "E", "F", "shapes")}
+_MODAL = {k: "f" for k in ("Omega", "Gamma", "cphi", "phib", "E", "F", "shapes",
+                            "transformation")}
+
+
+def _build_normal(**values):
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    return NormalModeModel(**legacy_modal(values))
+
+
+def _build_hybrid(**values):
+    from sdctrl.hybrids._predictions import HybridModel
+
+    return HybridModel(**legacy_modal(values))
+
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
                 "units"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"})
-register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL)
-register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL)
+register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL,
+               build=_build_normal)
+register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL,
+               build=_build_hybrid)
 register_attrs("FEModel", "sdctrl.fe:FEModel",
                ("M", "K", "C", "dofs", "nodes", "elements", "assembly"),
                kinds={"M": "f", "K": "f", "C": "f"})
