@@ -117,9 +117,9 @@ class Identification:
             s.markdown(modes_table(self.poles, self.truth[_match(self.poles, self.truth)]))
         else:
             s.markdown(modes_table(self.poles))
-        st = cm.info.get("stabilisation")
-        if st:
-            fig = plot.stabilisation(st["poles"], frf, orders=st["orders"])
+        st = cm.stabilisation
+        if st is not None:
+            fig = plot.stabilisation(st.poles, frf, orders=st.orders)
             for p in self.poles:
                 fig.axes[0].axvline(abs(p) / (2 * np.pi), color="tab:red", lw=0.6, alpha=0.5)
             s.figure(fig, "Stabilisation diagram: LSCF poles per model order over the CMIF "
