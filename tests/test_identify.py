@@ -189,7 +189,7 @@ def test_noise_draws_errors_within_three_std():
     """1% proportional noise, 50 draws, 0.05 Hz lines, varpro started from the exact poles.
 
     Measured (in-band modes, 49 of 50 draws; in one draw the weak local mode is pushed to
-    the edge of its search window and the fit reports it in ``info["warnings"]``):
+    the edge of its search window and the fit reports it in ``warnings``):
     relative frequency std 6e-6 .. 7e-5 (local mode 5.7e-4), damping std 0.1% .. 0.6%
     relative (local mode 25%); 99.7% of the frequency and 99.2% of the damping errors lie
     within 3 std; the bias is below 3 standard errors except for the local mode (0.8 std).
