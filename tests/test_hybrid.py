@@ -222,6 +222,26 @@ def test_subclass_survives_model_operations(case):
     assert isinstance(with_io(nm, b=["N4.x"]), HybridModel)
 
 
+def test_kind_and_n_static_follow_the_modes(case):
+    h = case["h"]
+    hs = h.with_static(case["wrong"].strut(*BAR))      # static correction of a strut appended
+    k = hs.n - h.n
+    assert k >= 1 and hs.n_static == h.n_static + k
+    assert hs.kind[:h.n].tolist() == h.kind.tolist() and set(hs.kind[h.n:]) == {"static"}
+    assert np.array_equal(hs.measured, hs.kind == "measured")
+    assert hs.measured.sum() == h.measured.sum() == h.construction.pairing.test_mode.size
+    # a mode added through replace (as diagnosis adds one) has no known origin: kind dropped
+    grown = h.replace(Omega=np.diag(np.r_[np.diag(h.Omega), 1e6]),
+                      Gamma=np.pad(h.Gamma, (0, 1)) + np.diag(np.r_[np.zeros(h.n), 2e3]),
+                      cphi=np.pad(h.cphi, ((0, 0), (0, 1))), phib=np.pad(h.phib, ((0, 1), (0, 0))),
+                      shapes=np.pad(h.shapes, ((0, 0), (0, 1))))
+    assert grown.n == h.n + 1 and grown.kind is None and grown.measured is None
+    with pytest.raises(ValueError, match="kind must hold one of"):
+        h.replace(kind=h.kind[:-1])
+    with pytest.raises(ValueError, match="kind must hold one of"):
+        h.replace(kind=np.where(h.kind == "fe", "guessed", h.kind))
+
+
 def test_expand_least_squares_smoothing():
     rng = np.random.default_rng(1)
     phi = np.linalg.qr(rng.standard_normal((20, 3)))[0]

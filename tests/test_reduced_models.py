@@ -128,6 +128,8 @@ def test_static_modes_beat_perturbation_for_a_large_stiffness_change(fe, links):
     assert pert[1] > 0.2 and reana[1] > 0.05
     assert static[1] < 1e-4 and np.all(static < reana) and np.all(reana < pert)
     assert "reanalysis+static" in err.report()
+    assert (err.n_modes, err.n_static) == (25, 36)                 # the basis of the docstring
+    assert "(25 normal modes, 36 static correction modes)" in err.report()
     with cf.ThreadPoolExecutor(2) as ex:
         par = reanalysis_errors(fe, links, [0.5, 2.5], band=(8, 60), executor=ex,
                                 progress=False)

@@ -13,7 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["HybridConstruction", "ModePairing", "ResidualChoice", "pairing_report"]
+__all__ = ["KINDS", "HybridConstruction", "ModePairing", "ResidualChoice", "pairing_report"]
+
+#: origins of the modes of a hybrid model (``HybridModel.kind``)
+KINDS = ("measured", "fe", "residual", "static")
 
 
 @dataclass(frozen=True, eq=False)

@@ -31,14 +31,12 @@ from sdctrl._lib.validate import as_array, readonly
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
-from sdctrl.hybrids._hybrid_records import HybridConstruction, pairing_report
+from sdctrl.hybrids._hybrid_records import KINDS, HybridConstruction, pairing_report
 from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.updating._reanalysis import modification_loads, reanalysis
 
 __all__ = ["HybridModel", "modify", "pairing_report", "strut_feedback", "with_io",
            "with_static"]
-
-KINDS = ("measured", "fe", "residual", "static")
 
 
 @dataclass(frozen=True, eq=False, repr=False)      # the concise repr of NormalModeModel
@@ -140,11 +138,13 @@ class HybridModel(NormalModeModel):
         HybridModel
             ``sensor_c`` (``actuator_b``) is dropped when new ``cphi`` (``phib``) changes the
             number of outputs (inputs) without giving it: the physical shapes of the new
-            signals are unknown (no static correction then).
+            signals are unknown (no static correction then); so is ``kind`` when a new
+            ``Omega`` changes the number of modes without giving it.
         """
         kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
         kw.update(changes)
-        for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1)):
+        for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1),
+                                ("kind", "Omega", 0)):
             old, new = kw[name], changes.get(key)
             if (name not in changes and old is not None and new is not None
                     and np.ndim(new) == 2 and np.shape(new)[axis] != old.shape[axis]):
