@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl._lib.records import freeze_arrays
+
 __all__ = ["KINDS", "HybridConstruction", "ModePairing", "ResidualChoice", "pairing_report"]
 
 #: origins of the modes of a hybrid model (``HybridModel.kind``)
@@ -43,6 +45,9 @@ class ModePairing:
     test_hz: np.ndarray | None = None
     fe_hz: np.ndarray | None = None
     poor: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,6 +109,9 @@ class HybridConstruction:
     residual: ResidualChoice | None = None
     residual_flexibility: np.ndarray | None = None
     mass_correction: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def pairing_report(model) -> str:

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl._lib.records import freeze_arrays
+
 __all__ = ["SearchDiagnostics", "Stabilisation"]
 
 
@@ -28,6 +30,9 @@ class Stabilisation:
 
     orders: np.ndarray | None = None
     poles: tuple = ()
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,3 +83,6 @@ class SearchDiagnostics:
     message: str | None = None
     interrupted: bool = False
     rcond: float | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)

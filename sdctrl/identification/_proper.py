@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from sdctrl._lib.records import freeze_arrays
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_collocated
 from sdctrl.identification._complex_modes import scale_residues
@@ -118,6 +119,9 @@ class Properness:
     poles_used: np.ndarray | None = None
     poles_left_out: np.ndarray | None = None
     poles_left_out_hz: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter: int = 50):
