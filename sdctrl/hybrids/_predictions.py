@@ -67,10 +67,8 @@ class HybridModel(NormalModeModel):
         Mode shapes on the FE DOFs.
     dofs : sequence of str, optional
         FE DOF labels of the rows of ``shapes``.
-    omega_c : float, optional
-        Cut-off (rad/s) of the correction mode realising ``E`` in velocity/acceleration.
-    F : array_like, shape (ns, na), optional
-        Low-frequency (residual mass) correction ``F/s^2`` of the displacement response.
+    omega_c, F, properness, transformation, n_static
+        As for :class:`~sdctrl.NormalModeModel` (``n_static``: the modes of kind ``"static"``).
     fe : FEModel, optional
         The FE model the shapes live on (set by :func:`sdctrl.hybrid`); with ``sensor_c``
         and ``actuator_b`` it enables the static correction of predictions.
