@@ -57,7 +57,7 @@ def main(argv=None) -> None:
         print(f"  margin {r.margin:.4f} <= margin_lower {r.margin_lower:.4f} "
               f"(gap {100 * (r.margin_lower / r.margin - 1):.2f}%), critical {r.frequency:.2f} Hz,"
               f" {r.info['n_freq']} frequencies ({r.info['n_dg']} D-G), certified "
-              f"{r.info['certified']}")
+              f"{r.certified}")
         if args.executor:
             from concurrent.futures import ProcessPoolExecutor
             with ProcessPoolExecutor(2) as ex:

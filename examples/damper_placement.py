@@ -60,11 +60,11 @@ fe = sd.FEModel(lab.M + sp.diags(d), lab.K + dK, lab.C, dofs=lab.dofs,
 
 # 3. hybrid model
 h = sd.hybrid(fe, measured, list(SENSORS), list(SHAKERS))
-pair = h.info["pairing"]
-print(f"hybrid model: {h.n} modes ({int(h.info['measured'].sum())} measured, "
-      f"{int(np.sum(h.info['kind'] == 'fe'))} FE); FE/test MAC "
-      f"{pair['mac'].min():.3f}-{pair['mac'].max():.3f}, FE frequency errors up to "
-      f"{100 * np.abs(pair['fe_hz'] / pair['test_hz'] - 1).max():.1f} %")
+pair = h.construction.pairing
+print(f"hybrid model: {h.n} modes ({int(h.measured.sum())} measured, "
+      f"{int(np.sum(h.kind == 'fe'))} FE); FE/test MAC "
+      f"{pair.mac.min():.3f}-{pair.mac.max():.3f}, FE frequency errors up to "
+      f"{100 * np.abs(pair.fe_hz / pair.test_hz - 1).max():.1f} %")
 
 # 4. placement study over the truss bars
 truss = [e for e in fe.elements if max(int(e[0][1:]), int(e[1][1:])) <= 28]

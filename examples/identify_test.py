@@ -81,8 +81,8 @@ if out is not None:
     import matplotlib
 
     matplotlib.use("Agg")
-    st = cm.info["stabilisation"]
-    sd.plot.stabilisation(st["poles"], frf, orders=st["orders"], path=out / "stabilisation.png")
+    st = cm.stabilisation
+    sd.plot.stabilisation(st.poles, frf, orders=st.orders, path=out / "stabilisation.png")
     sd.plot.bode([frf, nm], labels=["test", "normal modes"],
                  channels=[(SENSORS[0], SHAKERS[0]), ("N32.z", SHAKERS[0])],
                  path=out / "identified_bode.png")

@@ -141,7 +141,7 @@ def test_static_correction_completes_the_static_response_exactly():
     assert np.abs(phi.T @ (fe.K @ phiC)).max() < 1e-8 * np.abs(fe.K @ phiC).max()
     # the augmented normal-mode model has the exact static gain c K^-1 b
     nm = fe.normal_mode_model(b, c, 5, static=True)
-    assert nm.info["n_static"] == 3 and nm.n == 8
+    assert nm.n_static == 3 and nm.n == 8
     dc = nm.cphi @ np.linalg.solve(nm.Omega, nm.phib)
     # cond(K) of this 25-element cantilever is 1.5e8: cross terms that are exactly zero come out
     # at ~1e-10 of the largest gain through the modal solve, so the absolute floor sits at 1e-9

@@ -119,8 +119,8 @@ def test_analytic_check_untested_shaker(case):
 
 def test_appended_modes_damping_pairing_and_orthogonality(case):
     h, nm, wrong = case["h"], case["nm"], case["wrong"]
-    info = h.info
-    meas = info["measured"]
+    built = h.construction
+    meas = h.measured
     assert meas.sum() == nm.n == 12 and h.n == h.shapes.shape[1]
     assert np.all(np.diff(h.frequency) >= 0)
     # measured frequencies and full damping kept exactly
@@ -128,17 +128,17 @@ def test_appended_modes_damping_pairing_and_orthogonality(case):
     Gm = h.Gamma[np.ix_(meas, meas)]
     assert np.allclose(Gm, nm.Gamma, rtol=1e-12, atol=1e-12)
     # appended FE modes: below (suspension) and above the band, mean measured damping
-    fe_modes = info["kind"] == "fe"
+    fe_modes = h.kind == "fe"
     f_app = h.frequency[fe_modes]
     assert np.sum(f_app < 8.0) == 6 and np.sum(f_app > 60.0) >= 8
     zeta = np.diag(h.Gamma)[fe_modes] / (2 * 2 * np.pi * f_app)
     zmean = np.mean(np.diag(nm.Gamma) / (2 * np.sqrt(np.diag(nm.Omega))))
-    assert np.allclose(zeta, zmean, rtol=1e-10) and info["mean_damping"] == pytest.approx(zmean)
+    assert np.allclose(zeta, zmean, rtol=1e-10) and built.mean_damping == pytest.approx(zmean)
     assert np.all(h.Gamma[np.ix_(fe_modes, meas)] == 0)
     # pairing reported: MAC of every pair, FE and test frequencies
-    p = info["pairing"]
-    assert p["mac"].min() > 0.9 and info["poor_pairs"].size == 0
-    assert np.all(np.abs(p["fe_hz"] / p["test_hz"] - 1) < 0.1)
+    p = built.pairing
+    assert p.mac.min() > 0.9 and p.poor.size == 0
+    assert np.all(np.abs(p.fe_hz / p.test_hz - 1) < 0.1)
     # appended shapes are FE-mass-orthogonal to the expanded ones (distinct FE modes)
     S = h.shapes
     Mx = S.T @ (wrong.M @ S)
@@ -153,8 +153,8 @@ def test_static_correction_modes_are_critically_damped(case):
     true, nm = case["true"], case["nm"]
     s = true.strut(*BAR)
     hs = hybrid(true, nm, list(SENSORS), list(SHAKERS), static_b=s)
-    st = hs.info["kind"] == "static"
-    assert hs.info["n_static"] == st.sum() == 1
+    st = hs.kind == "static"
+    assert hs.n_static == st.sum() == 1
     w = 2 * np.pi * hs.frequency[st]
     assert np.allclose(np.diag(hs.Gamma)[st], 2 * w)          # critical damping (2.20)
     # with the exact FE model, the expanded + appended + static modes are static-complete
@@ -180,12 +180,12 @@ def test_hybrid_of_exact_data_reproduces_the_fe_model_and_modifications():
         h = hybrid(fe, nm, c, b)
     f = np.linspace(1.0, 40.0, 200)
     assert np.allclose(h.frf(f).H, nm.frf(f).H, rtol=1e-9, atol=1e-12)
-    assert np.allclose(np.abs(h.info["expansion"]), np.eye(fe.N), atol=1e-9)
+    assert np.allclose(np.abs(h.construction.expansion), np.eye(fe.N), atol=1e-9)
     # default actuator_b: identified phib, point forces from the DOF labels for the
     # appended modes (proportional damping 1%: the mean damping is exact)
     fe0 = sd.FEModel(fe.M, fe.K, dofs=fe.dofs)
     h2 = hybrid(fe0, fe0.normal_mode_model(["N2.x"], c, 4), c)
-    assert h2.info["kind"].tolist().count("fe") == 2
+    assert h2.kind.tolist().count("fe") == 2
     ref = fe0.normal_mode_model(["N2.x"], c, fe.N).frf(f).H
     assert np.allclose(h2.frf(f).H, ref, rtol=1e-9, atol=1e-12)
     # modifications on physical DOFs (5.2) equal the direct FE solution on a full basis
@@ -222,6 +222,26 @@ def test_subclass_survives_model_operations(case):
     assert isinstance(with_io(nm, b=["N4.x"]), HybridModel)
 
 
+def test_kind_and_n_static_follow_the_modes(case):
+    h = case["h"]
+    hs = h.with_static(case["wrong"].strut(*BAR))      # static correction of a strut appended
+    k = hs.n - h.n
+    assert k >= 1 and hs.n_static == h.n_static + k
+    assert hs.kind[:h.n].tolist() == h.kind.tolist() and set(hs.kind[h.n:]) == {"static"}
+    assert np.array_equal(hs.measured, hs.kind == "measured")
+    assert hs.measured.sum() == h.measured.sum() == h.construction.pairing.test_mode.size
+    # a mode added through replace (as diagnosis adds one) has no known origin: kind dropped
+    grown = h.replace(Omega=np.diag(np.r_[np.diag(h.Omega), 1e6]),
+                      Gamma=np.pad(h.Gamma, (0, 1)) + np.diag(np.r_[np.zeros(h.n), 2e3]),
+                      cphi=np.pad(h.cphi, ((0, 0), (0, 1))), phib=np.pad(h.phib, ((0, 1), (0, 0))),
+                      shapes=np.pad(h.shapes, ((0, 0), (0, 1))))
+    assert grown.n == h.n + 1 and grown.kind is None and grown.measured is None
+    with pytest.raises(ValueError, match="kind must hold one of"):
+        h.replace(kind=h.kind[:-1])
+    with pytest.raises(ValueError, match="kind must hold one of"):
+        h.replace(kind=np.where(h.kind == "fe", "guessed", h.kind))
+
+
 def test_expand_least_squares_smoothing():
     rng = np.random.default_rng(1)
     phi = np.linalg.qr(rng.standard_normal((20, 3)))[0]
@@ -248,9 +268,9 @@ def test_poor_pairing_warns_and_is_reported(case):
         nm.cphi.shape))
     with pytest.warns(UserWarning, match="poor FE/test mode pairing"):
         h = hybrid(case["wrong"], bad, list(SENSORS), list(SHAKERS))
-    assert h.info["poor_pairs"].size > 0
+    assert h.construction.pairing.poor.size > 0
     assert "(poor)" in pairing_report(h)
-    assert np.all(h.info["pairing"]["mac"][h.info["poor_pairs"]] < 0.8)
+    assert np.all(h.construction.pairing.mac[h.construction.pairing.poor] < 0.8)
 
 
 def test_bad_input_names_the_argument(case):

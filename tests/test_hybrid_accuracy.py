@@ -85,16 +85,16 @@ def test_nominal_hybrid_no_less_accurate_than_the_identified_model(bed):
     err_h = logls(bed["h"].frf(FREQ, "acceleration"), bed["ref"])
     err_w = logls(bed["wrong"].frf(FREQ, SH, SE, "acceleration"), bed["ref"])
     print(f"\nnominal logLS vs truth at the tested I/O: identified NM {err_nm:.5f}, hybrid "
-          f"{err_h:.5f} ({bed['h'].info['residual']['variant']}), wrong FE {err_w:.4f}")
+          f"{err_h:.5f} ({bed['h'].construction.residual.variant}), wrong FE {err_w:.4f}")
     # measured: NM 0.0222, hybrid 0.0219, wrong FE 2.7
     assert err_h <= err_nm
     assert err_w > 50 * err_h
     # the identified residual flexibility is kept at the tested I/O, carried by the static
     # correction modes (2.22): the realisation is exact in acceleration too
     h = bed["h"]
-    E = h.info["residual_flexibility"]
+    E = h.construction.residual_flexibility
     assert E is not None and np.any(E) and h.E is None
-    r = h.info["kind"] == "residual"
+    r = h.kind == "residual"
     w2 = np.diag(h.Omega)[r]
     np.testing.assert_allclose((h.cphi[:, r] - h.sensor_c @ h.shapes[:, r]) @ (h.phib[r].T
                                / w2).T, E, atol=1e-9 * np.abs(E).max())
@@ -172,7 +172,7 @@ def test_static_correction_is_consistent_with_the_shapes(bed):
     h, s = bed["h"], bed["s"]
     hs = h.with_static(s)
     n, k = h.n, hs.n - h.n
-    assert k == 1 and list(hs.info["kind"][n:]) == ["static"]
+    assert k == 1 and list(hs.kind[n:]) == ["static"]
     V = hs.shapes[:, n:]
     M = bed["wrong"].M
     # mass-orthonormal and mass-orthogonal to the model's own (expanded) shapes
@@ -194,9 +194,9 @@ def test_one_default_every_pole_and_deliberate_out_of_band_poles(bed):
     """``normal_modes`` keeps every pole by default; ``hybrid`` keeps the out-of-band ones
     that pair with an FE mode and absorbs the others into its residual terms."""
     cm, nm, h, wrong, ref = bed["cm"], bed["nm"], bed["h"], bed["wrong"], bed["ref"]
-    out = ~np.asarray(nm.info["in_band"])
+    out = ~np.asarray(nm.properness.in_band)
     assert nm.n == cm.n and out.sum() == (~cm.in_band).sum() == 1     # the 63 Hz pole
-    assert h.info["absorbed"].size == 0 and h.info["measured"].sum() == nm.n
+    assert h.construction.absorbed.size == 0 and h.measured.sum() == nm.n
     nm_ib = sd.normal_modes(cm, modes=cm.in_band)
     with pytest.warns(UserWarning, match="subset of the identified poles"):
         h_ib = sd.hybrid(wrong, nm_ib, SE, SH)
@@ -221,9 +221,9 @@ def test_one_default_every_pole_and_deliberate_out_of_band_poles(bed):
         hb = sd.hybrid(wrong, nm.replace(cphi=bad), SE, SH)
     j = int(np.flatnonzero(out)[0])
     assert not any(f"test mode {j} " in str(w.message) for w in caught)   # not paired
-    np.testing.assert_array_equal(hb.info["absorbed"], np.flatnonzero(out))
-    assert hb.info["measured"].sum() == nm.n - 1
-    f_meas = hb.frequency[hb.info["measured"]]
+    np.testing.assert_array_equal(hb.construction.absorbed, np.flatnonzero(out))
+    assert hb.measured.sum() == nm.n - 1
+    f_meas = hb.frequency[hb.measured]
     assert np.abs(f_meas - nm.frequency[j]).min() > 1.0              # its pole is gone
 
 
@@ -237,8 +237,8 @@ def test_normal_modes_leaves_out_of_band_poles_out_only_when_it_must(bed):
                       F=None if cm.F is None else np.asarray(cm.F)[:k])
     with pytest.warns(RuntimeWarning, match="out-of-band"):
         nm12 = sd.normal_modes(cm12)
-    assert nm12.n == int(cm.in_band.sum()) == k and np.all(nm12.info["in_band"])
-    np.testing.assert_array_equal(nm12.info["poles_used"], np.flatnonzero(cm.in_band))
+    assert nm12.n == int(cm.in_band.sum()) == k and np.all(nm12.properness.in_band)
+    np.testing.assert_array_equal(nm12.properness.poles_used, np.flatnonzero(cm.in_band))
 
 
 def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):

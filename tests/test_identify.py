@@ -189,7 +189,7 @@ def test_noise_draws_errors_within_three_std():
     """1% proportional noise, 50 draws, 0.05 Hz lines, varpro started from the exact poles.
 
     Measured (in-band modes, 49 of 50 draws; in one draw the weak local mode is pushed to
-    the edge of its search window and the fit reports it in ``info["warnings"]``):
+    the edge of its search window and the fit reports it in ``warnings``):
     relative frequency std 6e-6 .. 7e-5 (local mode 5.7e-4), damping std 0.1% .. 0.6%
     relative (local mode 25%); 99.7% of the frequency and 99.2% of the damping errors lie
     within 3 std; the bias is below 3 standard errors except for the local mode (0.8 std).
@@ -202,7 +202,7 @@ def test_noise_draws_errors_within_three_std():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IdentificationWarning)
             cm = sd.identify(frf, poles=lam, band=BAND, progress=False)
-        if cm.info["warnings"]:
+        if cm.warnings:
             flagged += 1
             continue
         i = _match(cm, lam)
@@ -345,10 +345,10 @@ def test_gradient_and_varpro_reach_the_same_optimum():
         fe, ze, re = _errors(cm, lam, R)
         assert fe[IN_BAND].max() < 1e-6 and ze[IN_BAND].max() < 1e-4, opt
         assert re[IN_BAND].max() < 1e-3 and fe.max() < 1e-4, opt
-    assert out["varpro"][0].info["search"]["converged"]
-    assert out["gradient"][0].info["search"]["converged"]
+    assert out["varpro"][0].search.converged
+    assert out["gradient"][0].search.converged
     # variable projection needs far fewer cost evaluations than the sign-gradient
-    assert out["varpro"][0].info["nfev"] < out["gradient"][0].info["nfev"]
+    assert out["varpro"][0].search.nfev < out["gradient"][0].search.nfev
     cm = sd.identify(frf, poles=lam0, band=BAND, optimizer="none", progress=False)
     assert cm.cost > 1e-3                             # residues only: poles not updated
     np.testing.assert_allclose(cm.poles, lam0)
@@ -388,7 +388,7 @@ def test_compression_and_determinism():
     lam0 = lam * (1 + 2e-4)
     a = sd.identify(frf, poles=lam0, band=BAND, progress=False, compress_rank=24)
     b = sd.identify(frf, poles=lam0, band=BAND, progress=False, compress_rank=0)
-    assert a.info["compress_rank"] == 24 and b.info["compress_rank"] == 30
+    assert a.search.compress_rank == 24 and b.search.compress_rank == 30
     # noise-free data have rank 22 (2 per pole + E + F): compression to 24 is exact
     np.testing.assert_allclose(a.poles, b.poles, rtol=1e-9)
     np.testing.assert_allclose(a.residues, b.residues, atol=1e-7 * np.abs(R).max())
@@ -542,7 +542,7 @@ def test_trouble_is_reported():
         cm = sd.identify(frf, poles=np.append(lam, lam[3]), band=BAND, optimizer="none",
                          progress=False)
     msgs = [str(w.message) for w in rec if issubclass(w.category, IdentificationWarning)]
-    assert msgs and cm.info["warnings"]
+    assert msgs and cm.warnings
     assert any("converge" in m or "ill-conditioned" in m for m in msgs)
 
 
@@ -560,7 +560,7 @@ def test_progress_bar_and_interrupt(monkeypatch, capsys):
     monkeypatch.setattr(AutoSelection, "prune", lambda *a, **k: None)
     with pytest.warns(IdentificationWarning, match="interrupted"):
         cm = sd.identify(frf, band=BAND, progress=False)
-    assert cm.info["interrupted"] and cm.n > 0
+    assert cm.search.interrupted and cm.n > 0
 
 
 def test_a_poor_fit_warns_where_the_error_lies_and_what_to_try():

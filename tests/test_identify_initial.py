@@ -77,8 +77,8 @@ def test_noise_free_exact_without_scan(monkeypatch):
     assert cm.n == lam.size and np.all(cm.in_band)
     assert np.max(np.abs(cm.poles / lam - 1)) < 1e-8
     assert cm.cost < 1e-8
-    st = cm.info["stabilisation"]
-    assert len(st["poles"]) == len(st["orders"])
+    st = cm.stabilisation
+    assert len(st.poles) == len(st.orders)
 
 
 @pytest.mark.parametrize("scale", [1e160, 1e-160, 1e-155, 3.0])

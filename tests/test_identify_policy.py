@@ -57,5 +57,5 @@ def test_warnings_point_at_the_caller():
         cm = sd.identify(frf, poles=np.append(lam, lam[3]), band=BAND, optimizer="none",
                          progress=False)
     ours = [w for w in rec if issubclass(w.category, IdentificationWarning)]
-    assert ours and len(ours) == len(cm.info["warnings"])
+    assert ours and len(ours) == len(cm.warnings)
     assert all(w.filename == __file__ for w in ours)

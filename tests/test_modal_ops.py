@@ -74,7 +74,7 @@ def test_modified_equals_fe_with_mass_and_stiffness_changes():
     # mass-normalised again: new frequencies are those of the modified FE model
     f_ref, _ = sd.FEModel(fe.M + dM, fe.K + dK, dofs=fe.dofs).modes(fe.N)
     assert np.allclose(mod.frequency, f_ref, rtol=1e-10)
-    T = mod.info["transformation"]
+    T = mod.transformation
     assert np.allclose(T.T @ (np.eye(fe.N) + phi.T @ dM @ phi) @ T, np.eye(fe.N), atol=1e-10)
 
 

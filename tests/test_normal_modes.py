@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.identification._proper import proper_modes, scaled_modes
+from sdctrl.identification._proper import scaled_modes
+from sdctrl.identification._properness import proper_modes
 from sdctrl.updating import _costs as costs
 
 FREQ_HZ = np.array([8.0, 13.0, 20.0, 20.5, 27.0, 34.0])   # close pair 20 / 20.5 Hz
@@ -81,14 +82,14 @@ def test_exact_more_sensors_than_modes():
     # measured: ef 1e-15, eG 8e-13, ec 2e-14, eb 2e-14
     assert ef < 1e-5 and eG < 1e-3 and ec < 1e-4 and eb < 1e-4
     assert ef < 1e-12 and eG < 1e-9 and ec < 1e-11
-    info = nm.info
-    assert info["pole_error"] < 1e-12
+    rec = nm.properness
+    assert rec.pole_error < 1e-12
     assert np.allclose(np.sort_complex(nm.poles), np.sort_complex(cm.poles), rtol=1e-12)
-    assert info["properness_before"] < 1e-12 and info["properness_after"] < 1e-12
-    assert info["delta_radius"] < 1e-12
-    assert info["positive_definite"] == {"mass": True, "stiffness": True, "damping": True}
-    assert info["c_T"].shape == (12, 6) and info["sensor_eigenvalues"][:6].min() > 0
-    assert info["residue_error"] < 1e-12 and info["collocation_error"] < 1e-12
+    assert rec.properness_before < 1e-12 and rec.properness_after < 1e-12
+    assert rec.delta_radius < 1e-12
+    assert rec.positive_definite == {"mass": True, "stiffness": True, "damping": True}
+    assert rec.c_T.shape == (12, 6) and rec.sensor_eigenvalues[:6].min() > 0
+    assert rec.residue_error < 1e-12 and rec.collocation_error < 1e-12
     # E carried over, labels kept, Omega diagonal, strong coupling of the close pair found
     assert np.array_equal(nm.E, E) and nm.F is None
     assert nm.sensors == true.sensors and nm.actuators == true.actuators
@@ -108,8 +109,8 @@ def test_exact_as_many_sensors_as_modes():
     nm = sd.normal_modes(cm)                      # pairs taken from cm.collocated
     ef, eG, ec, eb = _errors(nm, true)
     assert ef < 1e-12 and eG < 1e-9 and ec < 1e-11 and eb < 1e-11
-    assert np.array_equal(nm.info["c_T"], np.eye(6))
-    assert nm.info["pole_error"] < 1e-12
+    assert np.array_equal(nm.properness.c_T, np.eye(6))
+    assert nm.properness.pole_error < 1e-12
 
 
 def test_one_collocated_pair_and_labels_suffice():
@@ -148,7 +149,7 @@ def test_round_off_asymptotic_terms_are_dropped():
     cm = cm.replace(E=np.full((12, 3), 1e-19), F=np.full((12, 3), 1e-14))
     nm = sd.normal_modes(cm)
     assert nm.E is None and nm.F is None
-    assert nm.info["E_relative_size"] < 1e-12 and nm.info["F_relative_size"] < 1e-12
+    assert nm.properness.E_relative_size < 1e-12 and nm.properness.F_relative_size < 1e-12
     assert nm.to_statespace("acceleration").nstates == 2 * nm.n
     big = sd.normal_modes(cm.replace(E=np.full((12, 3), 1e-7), F=np.full((12, 3), 1e-2)))
     assert np.array_equal(big.E, np.full((12, 3), 1e-7))
@@ -184,25 +185,25 @@ def test_perturbed_residues_small_riccati_root(ns):
     noise = rng.standard_normal(R.shape) + 1j * rng.standard_normal(R.shape)
     cmp = cm.replace(residues=R + eps * noise * np.abs(R).max(axis=(1, 2))[:, None, None])
     nm = sd.normal_modes(cmp)
-    info = nm.info
+    rec = nm.properness
     # the identified-like modes are not proper; the correction makes them proper
-    assert 1e-5 < info["properness_before"] < 1e-3
-    assert info["properness_after"] < 1e-14
+    assert 1e-5 < rec.properness_before < 1e-3
+    assert rec.properness_after < 1e-14
     # delta is a root of (3.52) and the SMALL one: |eig| of the order of the properness error
-    psi = info["c_T"].T @ info["cpsi"]
+    psi = rec.c_T.T @ rec.cpsi
     A0 = 2 * (psi @ psi.T).real
     G = 2 * (psi @ psi.conj().T).real
-    d = info["delta"]
+    d = rec.delta
     assert np.allclose(d, d.T)
     assert np.linalg.norm(A0 - d @ G - G @ d + d @ A0 @ d) < 1e-12 * np.linalg.norm(G)
-    assert info["delta_radius"] == pytest.approx(np.abs(np.linalg.eigvals(d)).max())
-    assert info["delta_radius"] < 5 * info["properness_before"] < 1e-2
-    assert 1 <= info["newton_iterations"] <= 4
+    assert rec.delta_radius == pytest.approx(np.abs(np.linalg.eigvals(d)).max())
+    assert rec.delta_radius < 5 * rec.properness_before < 1e-2
+    assert 1 <= rec.newton_iterations <= 4
     # the correction is small: of the order of the perturbation
-    dpsi = np.linalg.norm(info["psi_proper"] - psi) / np.linalg.norm(psi)
+    dpsi = np.linalg.norm(rec.psi_proper - psi) / np.linalg.norm(psi)
     assert dpsi < 5 * eps
     # identified poles kept exactly (the transformation is exact for proper modes)
-    assert info["pole_error"] < 1e-12
+    assert rec.pole_error < 1e-12
     # accuracy of the order of the perturbation (Gamma ~ eps/zeta: damping is small)
     ef, eG, ec, eb = _errors(nm, true)
     # measured (ns=12 / 6): ef 1.3e-7 / 6.6e-7, eG 3.8e-3 / 4.3e-3, ec 1.6e-4 / 1.4e-4
@@ -218,9 +219,9 @@ def test_newton_from_zero_converges_quadratically():
     rng = np.random.default_rng(2)
     psi = cpsi + 1e-3 * np.abs(cpsi).max() * (rng.standard_normal(cpsi.shape)
                                               + 1j * rng.standard_normal(cpsi.shape))
-    psi_p, info = proper_modes(psi)
-    assert info["newton_iterations"] <= 4 and info["riccati_residual"] < 1e-13
-    assert info["delta_radius"] < 1e-2
+    psi_p, rec = proper_modes(psi)
+    assert rec.newton_iterations <= 4 and rec.riccati_residual < 1e-13
+    assert rec.delta_radius < 1e-2
     assert np.linalg.norm(psi_p @ psi_p.T + (psi_p @ psi_p.T).conj()) < 1e-13 * np.linalg.norm(
         psi_p @ psi_p.conj().T)
     # (3.52) as a CARE, G X + X G - X A0 X - A0 = 0: Hamiltonian [[G, -A0], [A0, -G]].  The
@@ -237,7 +238,7 @@ def test_newton_from_zero_converges_quadratically():
         roots[name] = X
     # measured: |eig| 6.8e3 for the stable-subspace root, 6.6e-3 for the small one
     assert np.abs(np.linalg.eigvals(roots["stable"])).max() > 100
-    assert np.allclose(info["delta"], roots["antistable"], atol=1e-10)
+    assert np.allclose(rec.delta, roots["antistable"], atol=1e-10)
 
 
 def test_non_positive_definite_mass_is_reported():
@@ -262,9 +263,9 @@ def test_non_positive_damping_is_warned_and_reported():
     cmp = cm.replace(residues=R + 1e-2 * noise * np.abs(R).max(axis=(1, 2))[:, None, None])
     with pytest.warns(RuntimeWarning, match="damping matrix is not positive semi-definite"):
         nm = sd.normal_modes(cmp)
-    assert nm.info["positive_definite"]["damping"] is False
-    assert nm.info["damping_eigenvalues"].min() < 0
-    assert nm.info["pole_error"] < 1e-12            # still the identified poles
+    assert nm.properness.positive_definite["damping"] is False
+    assert nm.properness.damping_eigenvalues.min() < 0
+    assert nm.properness.pole_error < 1e-12            # still the identified poles
 
 
 def test_non_positive_damping_warning_says_what_to_do():
@@ -279,7 +280,7 @@ def test_non_positive_damping_warning_says_what_to_do():
     w = next(w for w in rec if "positive semi-definite" in str(w.message))
     msg = str(w.message)
     assert w.filename == __file__                    # points at the caller's line
-    ec = nm.info["damping_eigenvalues"]
+    ec = nm.properness.damping_eigenvalues
     rel = ec.min() / np.abs(ec).max()
     assert f"{rel:.1e} of it" in msg                 # the size, relative to the spectrum
     assert "can be used as is" in msg and "damping_eigenvalues" in msg
@@ -438,7 +439,7 @@ def test_statespace_with_static_correction_modes_from_fe():
     C = 1e-4 * K + np.diag([0, 0, 3.0, 0, 0, 0, 0, 0])
     fe = sd.FEModel(M, K, C, dofs=[f"N{i}.x" for i in range(n)])
     nm = fe.normal_mode_model(["N1.x", "N6.x"], ["N1.x", "N3.x", "N6.x"], 3, static=True)
-    assert nm.info["n_static"] == 2
+    assert nm.n_static == 2
     f = np.linspace(1.0, 30.0, 300)
     for q in ("displacement", "velocity", "acceleration"):
         H = nm.frf(f, q).H

@@ -189,7 +189,7 @@ def test_all_parameter_kinds_with_feedthrough_bracket_and_guarantee():
     r = robust_stability(um, K)
     # measured: margin 0.326, margin_lower 0.402 (the D-G bound of this mixed real problem is
     # ~20% above the real mu even without regularisation: 2.98 vs 2.49 at the critical frequency)
-    assert r.info["certified"] and 0 < r.margin <= r.margin_lower
+    assert r.certified and 0 < r.margin <= r.margin_lower
     assert r.margin_lower / r.margin < 1.3
     cl = control.feedback(um.perturbed(r.delta), K)
     assert np.max(np.linalg.eigvals(cl.A).real) >= 0

@@ -40,7 +40,7 @@ def test_full_gamma_on_all_in_band_modes(identified):
     r = sd.robust_stability(um, K, progress=False)
     # measured (2 cores, loaded): 2.2 s; margin 1.9496, margin_lower 1.9708 (gap 1.1%), the
     # close pair 15.6/16.0 Hz critical; certified intervals cover every frequency
-    assert r.stable and r.info["certified"]
+    assert r.stable and r.certified
     assert 0 < r.margin <= r.margin_lower
     assert r.margin_lower / r.margin <= 1.10
     assert 15.0 < r.frequency < 16.5
@@ -66,5 +66,5 @@ def test_readme_robustness_line_on_six_modes():
     assert len(um.blocks) == 21 and sum(r for _, r in um.blocks) == 36
     controller = rate_feedback(nm)
     r = sd.robust_stability(um, controller)
-    assert r.info["certified"] and 0 < r.margin <= r.margin_lower <= 1.10 * r.margin
+    assert r.certified and 0 < r.margin <= r.margin_lower <= 1.10 * r.margin
     assert closed_loop_abscissa(um, controller, r.delta) >= 0

@@ -51,7 +51,7 @@ def test_testbed_models_round_trip_exactly(testbed_models, tmp_path, key):
     back = round_trip(obj, tmp_path)
     if key == "hybrid":
         assert isinstance(back, HybridModel)
-        assert back.info["pairing"]["mac"].min() > 0.9            # diagnostics kept, usable
+        assert back.construction.pairing.mac.min() > 0.9          # construction kept, usable
     if key == "fe":
         assert back.sparse and back.M.nnz == obj.M.nnz and back.C is not None
         assert np.array_equal(obj.modes(6)[0], back.modes(6)[0])    # same matrices, same modes
@@ -98,7 +98,8 @@ def test_dense_fe_frf_and_small_models_round_trip(tmp_path):
                                   "f32": np.float32(0.1), "u": np.array(["ab", "c"]),
                                   "nested": {"deep": {"x": np.arange(3)}}, "t": ()})
     back = round_trip(nm, tmp_path, "nm")
-    assert back.info["i64"].dtype == np.int64 and isinstance(back.info["a"][1], tuple)
+    diagnostics = back.info                         # the info codec itself: dtypes and tuples kept
+    assert diagnostics["i64"].dtype == np.int64 and isinstance(diagnostics["a"][1], tuple)
     cm = sd.ComplexModeModel(poles=[-0.1 + 10j], residues=[[[0.5j]]], cost=float("nan"),
                              band=(1.0, 2.0), collocated=[(0, 0)], in_band=[False])
     round_trip(cm, tmp_path, "cm")
@@ -439,3 +440,40 @@ def test_files_written_by_sdctrl_0_1_load_with_the_same_numbers():
     # the loaded models still work
     f = np.linspace(14.0, 20.0, 7)
     assert np.all(np.isfinite(hy.frf(f).H)) and np.all(np.isfinite(cm.frf(f).H))
+
+
+def test_typed_results_round_trip_and_files_of_sdctrl_0_1_fill_them(testbed_models, tmp_path):
+    """The typed results of issue 21 (``properness``, ``search``, ``stabilisation``, a hybrid's
+    ``kind``/``construction``, ``certified``) are saved and loaded exactly; files of sdctrl 0.1
+    had them in ``info`` and load with them on the new fields, ``info`` keeping the rest."""
+    cm, nm, hy = (testbed_models[k] for k in ("cm", "nm", "hybrid"))
+    back = round_trip(cm, tmp_path, "cm")
+    assert back.search.nfev == cm.search.nfev > 0 and back.search.converged is True
+    assert len(back.stabilisation.poles) == back.stabilisation.orders.size > 2
+    back = round_trip(nm, tmp_path, "nm")
+    assert back.properness.pole_error == nm.properness.pole_error < 1e-6
+    back = round_trip(hy, tmp_path, "hy")
+    assert back.measured.sum() == back.construction.pairing.test_mode.size == nm.n
+    r = RobustResult(1.5, 1.6, True, 3.0, np.zeros(1), np.ones(2), np.ones(2), {}, certified=True)
+    assert round_trip(r, tmp_path, "r").certified is True
+    # files of sdctrl 0.1 (tests/data/legacy/make_legacy.py): info entries on the new fields
+    old = sd.load(LEGACY / "normal_modes.npz")
+    p = old.properness
+    assert set(old.info) == {"source"} and p.poles_used.tolist() == list(range(old.n))
+    assert p.pole_error < 1e-12 and p.properness_after < 1e-12 < p.properness_before < 1e-2
+    assert p.positive_definite == {"mass": True, "stiffness": True, "damping": True}
+    assert p.in_band.tolist() == [False, True, True, True, True] and p.band[0] < p.band[1]
+    old = sd.load(LEGACY / "complex_modes.npz")
+    assert (old.search.nfev, old.search.compress_rank, old.warnings) == (63, 44, ())
+    assert old.search.converged and set(old.info) == {"log"}
+    assert len(old.stabilisation.poles) == old.stabilisation.orders.size == 7
+    old = sd.load(LEGACY / "hybrid.npz")
+    pairing = old.construction.pairing
+    assert old.kind.size == old.n and old.measured.sum() == pairing.test_mode.size == 5
+    assert pairing.mac.min() > 0.98 and pairing.poor.size == 0 and old.n_static == 0
+    assert old.construction.residual.variant == "fe frequencies, mass+E"
+    assert set(old.info) == {"source"}
+    old = sd.load(LEGACY / "update_result.npz")
+    assert old.test_modes == "given normal modes" and "from the data" in old.damping
+    assert "damping" not in old.info and "test_modes" not in old.info
+    assert sd.load(LEGACY / "uncertain.npz").model.properness.pole_error < 1e-12

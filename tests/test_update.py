@@ -73,7 +73,7 @@ def test_recovers_two_parameters_noise_free_with_known_damping(updated):
     # within 2.4e-4 logLS of the exact FE response)
     assert all(abs(e) < 0.01 for e in err.values()), err
     assert updated.cost_before > 1.0 and updated.cost_after < 1e-3
-    assert updated.info["damping"].startswith("FE damping matrix")
+    assert updated.damping.startswith("FE damping matrix")
 
 
 def test_recovers_with_one_percent_noise_and_damping_from_data(wrong, noisy, params):
@@ -81,8 +81,8 @@ def test_recovers_with_one_percent_noise_and_damping_from_data(wrong, noisy, par
     err = _ratio_errors(res)
     # stated tolerance 1%; measured 0.2-0.4% over seeds 0-3
     assert all(abs(e) < 0.01 for e in err.values()), err
-    assert "from the data" in res.info["damping"]
-    assert res.info["test_modes"] == "identified normal modes"
+    assert "from the data" in res.damping
+    assert res.test_modes == "identified normal modes"
     assert res.cost_after < 0.05 * res.cost_before
 
 
@@ -152,7 +152,7 @@ def test_identified_normal_mode_model_gives_its_full_damping(wrong, clean, param
         nm = sd.normal_modes(cm, clean.collocated, modes=cm.in_band)
     assert np.abs(nm.Gamma - np.diag(np.diag(nm.Gamma))).max() > 0.5     # coupled pair
     res = sd.update(wrong, clean, params, damping=nm, progress=False)
-    assert res.info["test_modes"] == "given normal modes"
+    assert res.test_modes == "given normal modes"
     assert all(abs(e) < 0.01 for e in _ratio_errors(res).values())
 
 

@@ -96,7 +96,7 @@ def test_update_recovers_the_chain_parameters(nominal, measured):
                    sensors=DOFS, actuators=DOFS[-1:])
     undamped = sd.FEModel(nominal.M, nominal.K, dofs=DOFS)
     res = sd.update(undamped, noisy, _params(), progress=False)
-    assert res.info["test_modes"] == "identified complex modes"
+    assert res.test_modes == "identified complex modes"
     for name, value in TRUTH.items():
         assert res.values[name] == pytest.approx(value, abs=2e-3)
 

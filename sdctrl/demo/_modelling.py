@@ -200,18 +200,19 @@ class Hybrid:
     def summary(self) -> str:
         """One line."""
         h = self.model
-        meas = int(np.sum(h.info["measured"])) if "measured" in h.info else h.n
+        meas = h.n if getattr(h, "measured", None) is None else int(np.sum(h.measured))
         return (f"{h.n} modes ({meas} measured, the others from the FE model); logLS vs test "
                 f"{self.costs['hybrid']:.3g} (wrong FE {self.costs['wrong FE']:.3g})")
 
     def checks(self) -> list[Check]:
         """Key numbers against the truth."""
         c, u = self.costs, self.untested
-        pairing = self.model.info.get("pairing", {})
+        built = getattr(self.model, "construction", None)
+        pairing = None if built is None else built.pairing
         out = [Check(f"logLS vs test: {k}", float(v)) for k, v in c.items()]
-        if "mac" in pairing:
+        if pairing is not None and pairing.mac is not None:
             out.append(Check("smallest MAC of the FE/test mode pairing",
-                             float(np.min(pairing["mac"]))))
+                             float(np.min(pairing.mac))))
         out += [Check(f"logLS at untested {UNTESTED} vs truth: hybrid", float(u["hybrid"])),
                 Check(f"logLS at untested {UNTESTED} vs truth: wrong FE", float(u["wrong FE"]))]
         return out
@@ -242,7 +243,8 @@ class Hybrid:
             "inputs at untested points come from the expanded shapes (`.with_io`). The "
             f"prediction at the untested DOF `{UNTESTED}` is compared with the true structure.")
         s.key_numbers(self.checks())
-        meas = np.flatnonzero(np.asarray(h.info.get("measured", np.ones(h.n, bool))))
+        meas = np.flatnonzero(np.ones(h.n, bool) if getattr(h, "measured", None) is None
+                              else h.measured)
         f = h.frequency[meas]
         close = int(np.argmin(np.diff(f) / f[1:])) if f.size > 1 else 0
         modes = [int(meas[close]), int(meas[min(close + 1, meas.size - 1)])]

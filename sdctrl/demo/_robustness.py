@@ -148,7 +148,7 @@ def robust_strut(hybrid, placement, update, progress: bool | None = None) -> Rob
     s = update.result.fe.strut(*placement.bar)
     hs = h.with_io(b=s, c=s.T, actuators=["strut"], sensors=["strut"]).replace(E=None, F=None)
     measured = np.zeros(hs.n, bool)
-    m = np.asarray(h.info.get("measured", np.ones(h.n, bool)), bool)
+    m = np.ones(h.n, bool) if getattr(h, "measured", None) is None else h.measured
     measured[:min(m.size, hs.n)] = m[:hs.n]
     dG = np.zeros((hs.n, hs.n))
     block = np.ix_(measured, measured)

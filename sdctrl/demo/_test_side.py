@@ -117,9 +117,9 @@ class Identification:
             s.markdown(modes_table(self.poles, self.truth[_match(self.poles, self.truth)]))
         else:
             s.markdown(modes_table(self.poles))
-        st = cm.info.get("stabilisation")
-        if st:
-            fig = plot.stabilisation(st["poles"], frf, orders=st["orders"])
+        st = cm.stabilisation
+        if st is not None:
+            fig = plot.stabilisation(st.poles, frf, orders=st.orders)
             for p in self.poles:
                 fig.axes[0].axvline(abs(p) / (2 * np.pi), color="tab:red", lw=0.6, alpha=0.5)
             s.figure(fig, "Stabilisation diagram: LSCF poles per model order over the CMIF "
@@ -232,7 +232,7 @@ class NormalModes:
     def checks(self) -> list[Check]:
         """Key numbers against the truth."""
         nm = self.nm
-        pd = nm.info.get("positive_definite", {}) if isinstance(nm.info, dict) else {}
+        pd = (nm.properness.positive_definite if nm.properness is not None else None) or {}
         out = [Check("damping matrix positive semi-definite (3.45)",
                      bool(pd.get("damping", True)), True)]
         if self.test is None or nm.n < 2:

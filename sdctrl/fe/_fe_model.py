@@ -429,7 +429,7 @@ class FEModel(ElementGroups):
         NormalModeModel
             ``Omega`` (rad/s)^2, ``Gamma`` rad/s (full when ``C`` couples modes),
             ``cphi``, ``phib``, ``shapes`` (N, n + k) on :attr:`dofs`;
-            ``info["n_static"]`` counts the appended correction modes.
+            ``n_static`` counts the appended correction modes.
         """
         B, alab = self._input(b, "b")
         if c is None:

@@ -57,19 +57,21 @@ def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
     Omega = np.diag(lam)
     E = None
     phiT = phi
-    info = {"source": "FEModel", "n_modes": n, "n_static": 0, "frequency_hz": freq.copy()}
+    info = {"source": "FEModel", "n_modes": n, "frequency_hz": freq.copy()}
+    n_static = 0
     if static in (True, "modes"):
         V, wc2 = _static_modes(fe, B, phi)
         if V.shape[1]:
             phiT = np.hstack([phi, V])
             Omega = np.diag(np.concatenate([lam, wc2]))
-            info["n_static"] = V.shape[1]
+            n_static = V.shape[1]
             info["static_frequency_hz"] = np.sqrt(np.clip(wc2, 0, None)) / (2 * np.pi)
     elif static == "E":
         E = Cm @ fe.static_correction(B, phi)
     Gamma = _damping(fe, phiT, Omega, n, z * 2 * np.sqrt(lam), static_damping)
     return NormalModeModel(Omega, Gamma, Cm @ phiT, phiT.T @ B, E=E, sensors=sensors,
-                           actuators=actuators, shapes=phiT, dofs=fe.dofs, info=info)
+                           actuators=actuators, shapes=phiT, dofs=fe.dofs, info=info,
+                           n_static=n_static)
 
 
 def _check_options(fe, n, damping, static, static_damping) -> np.ndarray:

@@ -28,14 +28,20 @@ from sdctrl.fe._static import consistent_static_modes
 from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.hybrids._hybrid_basis import (
+    ModeSet,
     build_basis,
     fe_modes_upto,
     select_residual,
     stack_parts,
-    tested_offset,
 )
 from sdctrl.modal._normal_model import NormalModeModel
-from sdctrl.hybrids._predictions import HybridModel, pairing_report
+from sdctrl.hybrids._hybrid_records import (
+    HybridConstruction,
+    ModePairing,
+    ResidualChoice,
+    pairing_report,
+)
+from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
 
 __all__ = ["hybrid", "pairing_report"]
@@ -70,10 +76,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       :meth:`~sdctrl.hybrids._predictions.HybridModel.with_io`).
       ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
       paired FE modes;
-    - out-of-band identified poles (``nm.info["in_band"]`` False) that pair with an FE
+    - out-of-band identified poles (``nm.properness.in_band`` False) that pair with an FE
       mode (MAC >= ``mac_min``) are kept as measured modes; the others (poles that absorb
       what lies beyond the band) are absorbed into the residual terms below
-      (``info["absorbed"]``);
+      (``construction.absorbed``);
     - every other FE mode up to ``fmax`` (5.1.1): the low ones (suspension, rigid-body) as
       FE shapes, the others made mass-orthogonal to the expanded shapes; damping ratio the
       mean measured one, no damping coupling;
@@ -86,9 +92,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
       the median measured/FE frequency ratio of the paired modes.  Each of these steps is
       kept only if it brings the model closer to ``nm`` at the tested I/O
-      (:func:`sdctrl.hybrids._hybrid_basis.select_residual`; ``info["residual"]``).  The kept
+      (:func:`sdctrl.hybrids._hybrid_basis.select_residual`; ``construction.residual``).  The kept
       ``E`` is carried by the static correction modes' observabilities (2.22), so that
-      the realisation is exact (``info["residual_flexibility"]``).
+      the realisation is exact (``construction.residual_flexibility``).
       ``residual="fe"``: the thesis's hybrid, FE frequencies and no residual term;
     - optionally static correction modes for ``static_b``.
 
@@ -105,8 +111,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         The analytical model (need not be accurate: its shapes span the expansion).
     nm : NormalModeModel
         Identified normal modes (diagonal ``Omega``, rad/s^2; ``Gamma`` rad/s; ``cphi`` at
-        the test sensors; ``E`` and ``F`` residual terms; ``info["band"]`` and
-        ``info["in_band"]`` as :func:`sdctrl.normal_modes` sets them).
+        the test sensors; ``E`` and ``F`` residual terms; ``properness.band`` and
+        ``properness.in_band`` as :func:`sdctrl.normal_modes` sets them).
     sensor_c : array_like, shape (ns, N), or sequence of ns DOF labels
         The test sensors placed on the FE DOFs (rows match ``nm.sensors``).
     actuator_b : array_like, shape (N, na), or sequence of na DOF labels, optional
@@ -133,14 +139,12 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         Modes sorted by frequency; ``shapes`` (also ``expanded``) on ``fe.dofs``;
         ``E`` None unless part of the kept residual flexibility could not be carried by
         the correction modes;
-        ``info`` holds ``"kind"`` (``"measured"``, ``"fe"``, ``"residual"`` for the static
-        correction of the test inputs, ``"static"`` for ``static_b``, per mode),
-        ``"measured"`` (bool mask), ``"pairing"`` (``test_mode``, ``fe_mode``, ``mac``,
-        ``test_hz``, ``fe_hz`` of the kept measured modes), ``"mac"`` (FE x test MAC),
-        ``"poor_pairs"`` (rows of the pairing with MAC < ``mac_min``), ``"absorbed"``
-        (indices of absorbed ``nm`` modes), ``"expansion"`` (``A``), ``"mean_damping"``,
-        ``"kappa"``, ``"residual"`` (the chosen variant and the scores), ``"n_static"``,
-        ``"residual_flexibility"`` (the kept ``E`` at the test I/O, or None).
+        ``kind`` per mode (``"measured"``, ``"fe"``, ``"residual"`` for the static
+        correction of the test inputs, ``"static"`` for ``static_b``; ``measured`` its
+        mask), ``n_static`` and ``construction``
+        (:class:`~sdctrl.hybrids._hybrid_records.HybridConstruction`: the pairing with its
+        poor pairs, the FE x test MAC, the absorbed ``nm`` modes, the expansion ``A``, the
+        mean damping, the residual variant and its scores, the kept residual flexibility).
 
     Raises
     ------
@@ -166,7 +170,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     >>> fe = sd.testbed()
     >>> nm = fe.normal_mode_model(list(SHAKERS), list(SENSORS), 18)
     >>> h = sd.hybrid(fe, nm, list(SENSORS))
-    >>> bool(h.info["pairing"]["mac"].min() > 0.999)
+    >>> bool(h.construction.pairing.mac.min() > 0.999)
     True
     """
     check_fe_model(fe, "fe")
@@ -205,29 +209,24 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     phib_meas = nm.phib[kept]
     zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
     parts, report = select_residual(nm, kept, base, c, phib_meas, loads, zeta_mean, residual)
-    shapes, w2, Gamma, phib, kinds = stack_parts(parts, loads)
-    off = tested_offset(parts, c.shape[0])
+    modes = stack_parts(parts, loads, c.shape[0])
     if static_b is not None:
-        shapes, w2, Gamma, phib, kinds, off = _append_static(fe, static_b, shapes, w2, Gamma,
-                                                             phib, kinds, loads, off)
-    order = np.argsort(w2, kind="stable")
-    shapes, w2, phib, kinds = shapes[:, order], w2[order], phib[order], kinds[order]
-    off = off[:, order]
-    Gamma = Gamma[np.ix_(order, order)]
-    pairing = {"test_mode": km, "fe_mode": fe_idx[kept], "mac": mac_pairs[kept],
-               "test_hz": f_id[kept], "fe_hz": f_fe[fe_idx[kept]]}
-    info = {"source": "hybrid", "kind": kinds, "measured": kinds == "measured",
-            "pairing": pairing, "mac": macs, "poor_pairs": poor,
-            "absorbed": np.flatnonzero(~kept), "expansion": base.A,
-            "mean_damping": zeta_mean, "fe_frequency_hz": f_fe, "kappa": report["kappa"],
-            "residual": report, "n_static": int(np.sum(kinds == "static"))}
-    if "mass_correction" in parts:
-        info["mass_correction"] = parts["mass_correction"]
-    cphi, E = _realise_residual(c @ shapes + off, w2, phib, kinds, parts["E"])
-    info["residual_flexibility"] = parts["E"]
-    return HybridModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=nm.sensors,
-                       actuators=nm.actuators, shapes=shapes, dofs=fe.dofs, info=info, fe=fe,
-                       sensor_c=c, actuator_b=loads)
+        modes = _append_static(fe, static_b, modes, loads)
+    modes = modes.sorted()
+    kinds = modes.kind
+    pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],
+                          test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)
+    built = HybridConstruction(
+        pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept), expansion=base.A,
+        mean_damping=zeta_mean, fe_frequency_hz=f_fe, residual=ResidualChoice(**report),
+        residual_flexibility=parts["E"], mass_correction=parts.get("mass_correction"))
+    cphi, E = _realise_residual(c @ modes.shapes + modes.offset, modes.w2, modes.phib, kinds,
+                                parts["E"])
+    return HybridModel(np.diag(modes.w2), modes.Gamma, cphi, modes.phib, E=E,
+                       sensors=nm.sensors, actuators=nm.actuators, shapes=modes.shapes,
+                       dofs=fe.dofs, fe=fe,
+                       sensor_c=c, actuator_b=loads, kind=kinds,
+                       n_static=int(np.sum(kinds == "static")), construction=built)
 
 
 def _realise_residual(cphi, w2, phib, kinds, E):
@@ -256,7 +255,8 @@ def _realise_residual(cphi, w2, phib, kinds, E):
 
 def _warn_left_out(nm) -> None:
     """Poles of the identified model left out of ``nm`` (``normal_modes(cm, modes=...)``)."""
-    hz = np.atleast_1d(np.asarray(nm.info.get("poles_left_out_hz", []), float))
+    left = None if nm.properness is None else nm.properness.poles_left_out_hz
+    hz = np.atleast_1d(np.asarray([] if left is None else left, float))
     if hz.size:
         warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
                       f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
@@ -268,10 +268,16 @@ def _warn_left_out(nm) -> None:
 
 def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:
     """Out-of-band identified poles that pair poorly: absorbed into the residual terms."""
-    ib = nm.info.get("in_band")
-    if ib is None or np.shape(ib) != (nm.n,):
+    ib = _in_band(nm)
+    if ib is None:
         return np.zeros(nm.n, bool)
     return ~np.asarray(ib, bool) & (mac_pairs < mac_min)
+
+
+def _in_band(nm):
+    """Per mode of ``nm``, in the identified band (``nm.properness.in_band``), or None."""
+    ib = None if nm.properness is None else nm.properness.in_band
+    return None if ib is None or np.shape(ib) != (nm.n,) else np.asarray(ib, bool)
 
 
 def _loads(fe, nm, b):
@@ -284,8 +290,8 @@ def _loads(fe, nm, b):
     return None, bool(nm.na)
 
 
-def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads, off):
-    """Static correction modes for ``static_b`` consistent with ``shapes``.
+def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:
+    """Static correction modes for ``static_b`` consistent with the shapes of ``modes``.
 
     They are diagonalised on the stiffness together with the static correction of the test
     inputs (one Ritz block, so that the static response to ``static_b`` is exact for an
@@ -293,12 +299,12 @@ def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads, off):
     ``"static"``.
     """
     Bs, _ = shapes_on_dofs(static_b, fe.N, fe.dofs, "static_b")
-    res = kinds == "residual"
-    V2, _ = consistent_static_modes(fe, Bs, shapes)
+    res = modes.kind == "residual"
+    V2, _ = consistent_static_modes(fe, Bs, modes.shapes)
     k2 = V2.shape[1]
     if not k2:
-        return shapes, w2, Gamma, phib, kinds, off
-    J = np.hstack([shapes[:, res], V2])                        # mass-orthonormal block
+        return modes
+    J = np.hstack([modes.shapes[:, res], V2])                  # mass-orthonormal block
     Kj = J.T @ np.asarray(fe.K @ J)
     wc2, U = np.linalg.eigh(0.5 * (Kj + Kj.T))
     V = J @ U
@@ -308,13 +314,13 @@ def _append_static(fe, static_b, shapes, w2, Gamma, phib, kinds, loads, off):
     keep = ~res
     n = keep.sum()
     G = np.zeros((n + V.shape[1],) * 2)
-    G[:n, :n] = Gamma[np.ix_(keep, keep)]
+    G[:n, :n] = modes.Gamma[np.ix_(keep, keep)]
     G[n:, n:] = np.diag(2 * np.sqrt(np.clip(wc2, 0, None)))
-    pb = np.vstack([phib[keep], V.T @ loads if loads is not None
-                    else np.zeros((V.shape[1], phib.shape[1]))])
-    off = np.hstack([off[:, keep], np.zeros((off.shape[0], V.shape[1]))])
-    return (np.hstack([shapes[:, keep], V]), np.concatenate([w2[keep], wc2]), G, pb,
-            np.concatenate([kinds[keep], label]), off)
+    pb = np.vstack([modes.phib[keep], V.T @ loads if loads is not None
+                    else np.zeros((V.shape[1], modes.phib.shape[1]))])
+    off = np.hstack([modes.offset[:, keep], np.zeros((modes.offset.shape[0], V.shape[1]))])
+    return ModeSet(np.hstack([modes.shapes[:, keep], V]), np.concatenate([modes.w2[keep], wc2]),
+                   G, pb, np.concatenate([modes.kind[keep], label]), off)
 
 
 def _test_io(fe, nm, sensor_c, actuator_b):
@@ -369,8 +375,8 @@ def _mean_damping(nm, w_id, kept) -> float:
     """Mean damping ratio of the kept in-band measured modes, given to the appended FE
     modes (5.1.1)."""
     use = kept.copy()
-    ib = nm.info.get("in_band")
-    if ib is not None and np.shape(ib) == (nm.n,) and np.any(use & np.asarray(ib, bool)):
+    ib = _in_band(nm)
+    if ib is not None and np.any(use & ib):
         use &= np.asarray(ib, bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         zeta = np.diag(nm.Gamma) / (2 * w_id)

@@ -27,22 +27,22 @@ terms unless they reproduce them better.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.hybrids._expansion import expand, expand_regularised
+from sdctrl.hybrids._residual_mass import mass_bounded, mass_fit
 
-__all__ = ["HybridBasis", "build_basis", "fe_modes_upto", "select_residual", "tested_offset"]
+__all__ = ["HybridBasis", "ModeSet", "build_basis", "fe_modes_upto", "select_residual",
+           "stack_parts", "tested_offset"]
 
 #: low FE modes: eigenvalue below this fraction of the lowest paired FE eigenvalue
 LOW_FRACTION = 0.25
 #: appended FE modes almost inside the span of the expanded shapes are dropped
 APPENDED_MIN_NORM = 0.1
-#: bounds of the eigenvalues of the modal-mass correction of the low modes
-MASS_CORRECTION = (0.25, 4.0)
-#: regularisation of the residual-mass fit toward the FE masses (relative)
-MASS_REG = 1e-4
 #: frequency lines of the residual fits and of the selection
 N_GRID = 200
 
@@ -179,9 +179,9 @@ def _orthogonal_to(fe, X, w2, S):
 # residual terms at the tested I/O
 # ----------------------------------------------------------------------------------------
 def _grid(nm, w_id):
-    """Frequency lines (rad/s) of the test band: ``nm.info["band"]`` or the measured
+    """Frequency lines (rad/s) of the test band: ``nm.properness.band`` or the measured
     modes' range."""
-    band = nm.info.get("band")
+    band = None if nm.properness is None else nm.properness.band
     if band is None:
         band = (0.8 * w_id.min() / (2 * np.pi), 1.05 * w_id.max() / (2 * np.pi))
     lo, hi = float(band[0]), float(band[1])
@@ -246,9 +246,9 @@ def select_residual(nm, kept, base: HybridBasis, c, phib_measured, loads, zeta: 
         variants = [(f"{'kappa' if k != 1.0 else 'fe frequencies'}, {fit}", k, fit)
                     for k in kappas for fit in ("mass+E", "E", "none")]
     scores, best = {}, None
+    data = _VariantData(kept_modal, base, c, phib_measured, loads, zeta, w, R_t, Href)
     for name, kap, fit in variants:
-        parts = _variant(nm, kept_modal, base, c, phib_measured, loads, zeta, kap, fit, w, R_t,
-                         Href)
+        parts = _variant(data, kap, fit)
         if len(variants) == 1:
             return parts, {"variant": name, "scores": {}, "kappa": kap}
         model = assemble(kept_modal, parts, c, loads)
@@ -268,12 +268,35 @@ def _sub(nm, keep):
                            nm.phib[k], sensors=nm.sensors, actuators=nm.actuators)
 
 
-def _variant(nm, kept_modal, base, c, phib_meas, loads, zeta, kap, fit, w, R_t, Href):
-    """Shapes, frequencies, damping and ``E`` of one residual variant."""
+@dataclass(frozen=True, eq=False)
+class _VariantData:
+    """What every residual variant of :func:`select_residual` is built from.
+
+    ``kept_modal`` the kept measured modes, ``base`` the shapes, ``c`` the test sensors,
+    ``phib_meas`` the measured controllabilities, ``loads`` the test inputs (or None),
+    ``zeta`` the appended modes' damping ratio, ``w`` the lines (rad/s), ``R_t`` what the
+    kept measured modes leave of the identified FRF ``Href`` there.
+    """
+
+    kept_modal: NormalModeModel
+    base: HybridBasis
+    c: np.ndarray
+    phib_meas: np.ndarray
+    loads: np.ndarray | None
+    zeta: float
+    w: np.ndarray
+    R_t: np.ndarray
+    Href: np.ndarray
+
+
+def _variant(data: _VariantData, kap: float, fit: str):
+    """Shapes, frequencies, damping and ``E`` of one residual variant (``kappa``, fit)."""
+    kept_modal, base, c, loads, zeta = data.kept_modal, data.base, data.c, data.loads, data.zeta
+    w, R_t, Href = data.w, data.R_t, data.Href
     Sl, wl2 = base.low, base.low_w2
     wa2 = base.appended_w2 * kap**2
     parts = {"measured": (base.expanded, np.diag(kept_modal.Omega), kept_modal.Gamma,
-                          phib_meas),
+                          data.phib_meas),
              "low": (Sl, wl2), "appended": (base.appended, wa2),
              "static": (base.static, base.static_w2), "zeta": zeta, "E": None,
              "measured_offset": kept_modal.cphi - c @ base.expanded}
@@ -289,8 +312,7 @@ def _variant(nm, kept_modal, base, c, phib_meas, loads, zeta, kap, fit, w, R_t, 
     W = 1.0 / np.maximum(np.abs(Href), 1e-300 * np.abs(Href).max()) ** 2
     cl = c @ Sl
     if fit == "mass+E" and Sl.shape[1]:
-        P = _mass_fit(cl, Sl.T @ loads, wl2, zeta, w, target, W)
-        P = _mass_bounded(P)
+        P = mass_bounded(mass_fit(cl, Sl.T @ loads, wl2, zeta, w, target, W))
         # carried, like E, by the low modes' observabilities at the tested sensors: the
         # low FE shapes (and their prediction at other DOFs) are left as they are
         parts["low_offset"] = cl @ (P - np.eye(P.shape[0]))
@@ -300,53 +322,6 @@ def _variant(nm, kept_modal, base, c, phib_meas, loads, zeta, kap, fit, w, R_t, 
         target = target - _modal_frf(cl, wl2, 2 * zeta * np.sqrt(wl2), Sl.T @ loads, w)
     parts["E"] = np.sum(W * target.real, axis=0) / np.sum(W, axis=0)
     return parts
-
-
-def _mass_fit(X, Z, w2, zeta, w, target, W):
-    """Symmetric ``P`` correcting the modal inverse masses of the low modes.
-
-    Minimises ``sum W |target - sum_kl P_kl X_k Z_l g_kl(w) - E|^2`` over ``P`` and a real
-    constant ``E`` (eliminated), ``P`` regularised toward ``I``; ``g_kl`` is the geometric
-    mean of the modes' dynamic factors (the modes lie below the band: ``g ~ -1/w^2``).
-    """
-    k = X.shape[1]
-    iu = np.triu_indices(k)
-    diag = iu[0] == iu[1]
-    # few lines suffice for a handful of parameters; bound the work on large tests
-    step = max(1, int(np.ceil(w.size * iu[0].size * X.shape[0] * Z.shape[1] / 2e6)))
-    w, target, W = w[::step], target[::step], W[::step]
-    g = 1.0 / (w2[None, :] - w[:, None] ** 2 + 2j * zeta * w[:, None] * np.sqrt(w2))
-    gab = -np.sqrt(g[:, iu[0]] * g[:, iu[1]])                       # (nw, p), below band
-    T = np.einsum("ip,pj->pij", X[:, iu[0]], Z[iu[1]])
-    T[~diag] += np.einsum("ip,pj->pij", X[:, iu[1][~diag]], Z[iu[0][~diag]])
-    B = gab[:, :, None, None] * T[None]                              # (nw, p, ns, na)
-    y = target - B[:, diag].sum(axis=1)                              # P = I part
-    sw = np.sqrt(W)
-    wsum = np.sum(W, axis=0)
-
-    def centred(Y):                     # real part less its weighted mean over lines
-        return Y - np.sum(W * Y, axis=0) / wsum
-
-    Br = B.real - (np.einsum("wij,wpij->pij", W, B.real) / wsum)[None]
-    rows = np.concatenate([(Br * sw[:, None]).reshape(w.size, iu[0].size, -1),
-                           (B.imag * sw[:, None]).reshape(w.size, iu[0].size, -1)], axis=2)
-    rows = rows.transpose(1, 0, 2).reshape(iu[0].size, -1).T
-    rhs = np.concatenate([(centred(y.real) * sw).reshape(w.size, -1),
-                          (y.imag * sw).reshape(w.size, -1)], axis=1).ravel()
-    scale = np.linalg.norm(rows, 2) ** 2
-    dp = np.linalg.solve(rows.T @ rows + MASS_REG * scale * np.eye(rows.shape[1]),
-                         rows.T @ rhs)
-    P = np.eye(k)
-    P[iu] += dp
-    P[(iu[1], iu[0])] = P[iu]
-    return P
-
-
-def _mass_bounded(P):
-    """The inverse-mass correction ``P`` with its eigenvalues within
-    :data:`MASS_CORRECTION`."""
-    ev, V = np.linalg.eigh(0.5 * (P + P.T))
-    return (V * np.clip(ev, *MASS_CORRECTION)) @ V.T
 
 
 def tested_offset(parts, ns: int) -> np.ndarray:
@@ -377,6 +352,46 @@ def tested_offset(parts, ns: int) -> np.ndarray:
     return off
 
 
+@dataclass(frozen=True, eq=False)
+class ModeSet:
+    """The modes of a hybrid model being assembled, one column (entry) per mode.
+
+    Attributes
+    ----------
+    shapes : ndarray, shape (N, n)
+        Shapes on the FE DOFs.
+    w2 : ndarray, shape (n,)
+        ``omega^2`` (rad/s)^2.
+    Gamma : ndarray, shape (n, n)
+        Modal damping (rad/s).
+    phib : ndarray, shape (n, na)
+        Modal controllability.
+    kind : ndarray of str, shape (n,)
+        ``"measured"``, ``"fe"``, ``"residual"`` or ``"static"``.
+    offset : ndarray, shape (ns, n)
+        What the tested sensors' observabilities hold beyond ``c @ shapes``
+        (:func:`tested_offset`).
+    """
+
+    shapes: np.ndarray
+    w2: np.ndarray
+    Gamma: np.ndarray
+    phib: np.ndarray
+    kind: np.ndarray
+    offset: np.ndarray
+
+    def sorted(self) -> ModeSet:
+        """The same modes in increasing frequency (stable order).
+
+        Returns
+        -------
+        ModeSet
+        """
+        o = np.argsort(self.w2, kind="stable")
+        return ModeSet(self.shapes[:, o], self.w2[o], self.Gamma[np.ix_(o, o)], self.phib[o],
+                       self.kind[o], self.offset[:, o])
+
+
 def assemble(kept_modal, parts, c, loads):
     """Normal-mode model (no shapes' DOF labels) of one variant, for its comparison.
 
@@ -396,14 +411,13 @@ def assemble(kept_modal, parts, c, loads):
     NormalModeModel
         Modes in the order measured, low, appended, static.
     """
-    shapes, w2, Gamma, phib, _ = stack_parts(parts, loads)
-    cphi = c @ shapes + tested_offset(parts, c.shape[0])
-    return NormalModeModel(np.diag(w2), Gamma, cphi, phib, E=parts["E"],
+    m = stack_parts(parts, loads, c.shape[0])
+    return NormalModeModel(np.diag(m.w2), m.Gamma, c @ m.shapes + m.offset, m.phib, E=parts["E"],
                            sensors=kept_modal.sensors, actuators=kept_modal.actuators)
 
 
-def stack_parts(parts, loads):
-    """Shapes, ``omega^2``, block-diagonal ``Gamma``, ``phib`` and kinds of a variant.
+def stack_parts(parts, loads, ns: int) -> ModeSet:
+    """Shapes, ``omega^2``, block-diagonal ``Gamma``, ``phib``, kinds and offsets of a variant.
 
     Parameters
     ----------
@@ -411,10 +425,13 @@ def stack_parts(parts, loads):
         From :func:`select_residual`.
     loads : ndarray, shape (N, na), or None
         Test inputs (controllability of the non-measured modes; zero when unknown).
+    ns : int
+        Number of tested sensors.
 
     Returns
     -------
-    shapes, w2, Gamma, phib, kinds
+    ModeSet
+        Modes in the order measured, low, appended, static.
     """
     Sm, w2m, Gm, pbm = parts["measured"]
     zeta = parts["zeta"]
@@ -437,4 +454,4 @@ def stack_parts(parts, loads):
     phib[:Sm.shape[1]] = pbm
     if loads is not None:
         phib[Sm.shape[1]:] = shapes[:, Sm.shape[1]:].T @ loads
-    return shapes, w2, Gamma, phib, kinds
+    return ModeSet(shapes, w2, Gamma, phib, kinds, tested_offset(parts, ns))

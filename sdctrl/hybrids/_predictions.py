@@ -31,6 +31,7 @@ from sdctrl._lib.validate import as_array, readonly
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
+from sdctrl.hybrids._hybrid_records import KINDS, HybridConstruction, pairing_report
 from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.updating._reanalysis import modification_loads, reanalysis
 
@@ -66,10 +67,8 @@ class HybridModel(NormalModeModel):
         Mode shapes on the FE DOFs.
     dofs : sequence of str, optional
         FE DOF labels of the rows of ``shapes``.
-    omega_c : float, optional
-        Cut-off (rad/s) of the correction mode realising ``E`` in velocity/acceleration.
-    F : array_like, shape (ns, na), optional
-        Low-frequency (residual mass) correction ``F/s^2`` of the displacement response.
+    omega_c, F, properness, transformation, n_static
+        As for :class:`~sdctrl.NormalModeModel` (``n_static``: the modes of kind ``"static"``).
     fe : FEModel, optional
         The FE model the shapes live on (set by :func:`sdctrl.hybrid`); with ``sensor_c``
         and ``actuator_b`` it enables the static correction of predictions.
@@ -77,11 +76,19 @@ class HybridModel(NormalModeModel):
         Physical output shapes of the model's sensors on the DOFs of ``shapes``.
     actuator_b : array_like, shape (N, na), optional
         Physical input shapes of the model's actuators.
+    kind : sequence of str, shape (n,), optional
+        Origin of each mode: ``"measured"``, ``"fe"`` (appended FE mode), ``"residual"``
+        (static correction of the test inputs), ``"static"`` (static correction of extra
+        loads); :attr:`measured` is ``kind == "measured"``.
+    construction : HybridConstruction, optional
+        What :func:`sdctrl.hybrid` found: pairing, absorbed poles, expansion, residual terms.
     """
 
     fe: object = None
     sensor_c: np.ndarray | None = None
     actuator_b: np.ndarray | None = None
+    kind: np.ndarray | None = None
+    construction: HybridConstruction | None = None
 
     def __post_init__(self):
         super().__post_init__()
@@ -98,6 +105,16 @@ class HybridModel(NormalModeModel):
             if N is None:
                 raise ValueError(f"{name} given without shapes")
             object.__setattr__(self, name, readonly(as_array(val, name, shape=shape)))
+        if self.kind is not None:
+            kind = np.array(self.kind, dtype=str)
+            if kind.shape != (self.n,) or not set(kind.tolist()) <= set(KINDS):
+                raise ValueError(f"kind must hold one of {KINDS} per mode (n={self.n})")
+            object.__setattr__(self, "kind", readonly(kind))
+
+    @property
+    def measured(self) -> np.ndarray | None:
+        """Mask of the measured modes (``kind == "measured"``), None without ``kind``."""
+        return None if self.kind is None else self.kind == "measured"
 
     @property
     def static_ready(self) -> bool:
@@ -119,11 +136,13 @@ class HybridModel(NormalModeModel):
         HybridModel
             ``sensor_c`` (``actuator_b``) is dropped when new ``cphi`` (``phib``) changes the
             number of outputs (inputs) without giving it: the physical shapes of the new
-            signals are unknown (no static correction then).
+            signals are unknown (no static correction then); so is ``kind`` when a new
+            ``Omega`` changes the number of modes without giving it.
         """
         kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
         kw.update(changes)
-        for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1)):
+        for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1),
+                                ("kind", "Omega", 0)):
             old, new = kw[name], changes.get(key)
             if (name not in changes and old is not None and new is not None
                     and np.ndim(new) == 2 and np.shape(new)[axis] != old.shape[axis]):
@@ -132,7 +151,7 @@ class HybridModel(NormalModeModel):
 
     def _repr_markdown_(self) -> str:
         md = super()._repr_markdown_()
-        if self.info.get("pairing") is None:
+        if self.construction is None or self.construction.pairing is None:
             return md
         return md + "\n\n**FE/test mode pairing**\n\n" + pairing_report(self)
 
@@ -284,8 +303,8 @@ def with_static(model, loads) -> HybridModel:
     Returns
     -------
     HybridModel
-        ``k' <= k`` more modes (appended last, ``info["kind"]`` extended with
-        ``"static"`` when present); same inputs, outputs and ``E``.
+        ``k' <= k`` more modes (appended last, ``kind`` extended with ``"static"`` when
+        present, ``n_static`` increased); same inputs, outputs and ``E``.
 
     Raises
     ------
@@ -307,15 +326,11 @@ def with_static(model, loads) -> HybridModel:
     Omega[:n, :n], Gamma[:n, :n] = model.Omega, model.Gamma
     Omega[n:, n:] = np.diag(wc2)
     Gamma[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                       # critical (2.20)
-    info = dict(model.info)
-    kind = info.get("kind")
-    if kind is not None and len(kind) == n:
-        info["kind"] = np.concatenate([np.asarray(kind), np.full(k, "static")])
-        info["measured"] = info["kind"] == "measured"
-    return model.replace(
+    kind = None if model.kind is None else np.concatenate([model.kind, np.full(k, "static")])
+    return model.replace(kind=kind, n_static=model.n_static + k,
         Omega=Omega, Gamma=Gamma, shapes=np.hstack([model.shapes, V]),
         cphi=np.hstack([model.cphi, model.sensor_c @ V]),
-        phib=np.vstack([model.phib, V.T @ model.actuator_b]), info=info)
+        phib=np.vstack([model.phib, V.T @ model.actuator_b]))
 
 
 def with_io(model, b=None, c=None, *, actuators=None, sensors=None,
@@ -426,7 +441,7 @@ def modify(model, dM=None, dC=None, dK=None, *, static: bool | None = None) -> H
     Returns
     -------
     HybridModel
-        ``info["transformation"]`` maps the new modal coordinates to the old ones.
+        ``transformation`` maps the new modal coordinates to the old ones.
 
     Raises
     ------
@@ -478,30 +493,3 @@ def strut_feedback(model, fe, node_a: str, node_b: str, kp=0.0, kv=0.0) -> Hybri
                          f"N={fe.N})")
     s = fe.strut(node_a, node_b)
     return _as_hybrid(model).with_feedback(s, s.T, kp=kp, kv=kv)
-
-
-def pairing_report(model) -> str:
-    """Markdown table of the FE/test mode pairing of a hybrid model (from its ``info``).
-
-    Parameters
-    ----------
-    model : HybridModel
-        A model returned by :func:`sdctrl.hybrid`.
-
-    Returns
-    -------
-    str
-        One row per measured mode: test and FE frequencies (Hz), their ratio and the MAC,
-        poor pairs flagged.
-    """
-    p = model.info.get("pairing") if hasattr(model, "info") else None
-    if p is None:
-        raise ValueError("model has no pairing information (not built by hybrid)")
-    poor = set(np.asarray(model.info.get("poor_pairs", ())).tolist())
-    rows = ["| test mode | test Hz | FE mode | FE Hz | FE/test | MAC |",
-            "|---:|---:|---:|---:|---:|---:|"]
-    for j in range(p["test_mode"].size):
-        flag = " (poor)" if j in poor else ""
-        rows.append(f"| {j} | {p['test_hz'][j]:.3f} | {p['fe_mode'][j]} | {p['fe_hz'][j]:.3f} "
-                    f"| {p['fe_hz'][j] / p['test_hz'][j]:.4f} | {p['mac'][j]:.3f}{flag} |")
-    return "\n".join(rows)

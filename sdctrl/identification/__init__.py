@@ -2,7 +2,9 @@
 
 Public names are resolved lazily from the submodules:
 ``initial_poles`` (poles.py), ``identify`` and ``IdentificationWarning`` (fit.py),
-``ComplexModeModel`` (complex_modes.py), ``normal_modes`` (proper.py).  The pole search
+``ComplexModeModel`` (complex_modes.py, with the fit's records in fit_records.py),
+``normal_modes`` (proper.py: properness 3.40-3.54 in properness.py, the transformation 3.44
+in reduced_matrices.py).  The pole search
 of ``identify`` is cut along the thesis: data compression (compression.py), the pole
 update (3.18)-(3.19) (search.py), the noise field and significance test (noise.py), the
 missed-mode scan (scan.py) and the automatic pole selection (selection.py).

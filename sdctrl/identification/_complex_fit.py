@@ -31,6 +31,7 @@ from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array
 from sdctrl.identification._compression import compressed_data
+from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
 from sdctrl.identification._initial import (
     initial_candidates,
     lscf_candidates,
@@ -136,10 +137,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     ComplexModeModel
         Poles sorted by frequency, displacement residues, ``E``, ``F``, ``in_band``,
         ``cost`` (relative FRF error ``||H_fit - H||_F / ||H||_F`` in the band) and
-        ``info`` (optimiser, evaluations, compression rank, added/removed poles,
-        warnings; in automatic mode ``info["stabilisation"]``, the LSCF poles of every
-        order computed, ``{"orders", "poles"}``: draw them with
-        ``sd.plot.stabilisation(st["poles"], frf, orders=st["orders"])``).
+        ``search`` (optimiser, evaluations, convergence, compression rank,
+        interruption), ``warnings`` and, in automatic mode, ``stabilisation``: the LSCF
+        poles of every order computed (``st.orders``, ``st.poles``), drawn by
+        ``sd.plot.stabilisation(st.poles, frf, orders=st.orders)``; ``info`` keeps the
+        selection log.
 
     Raises
     ------
@@ -153,7 +155,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     -----
     IdentificationWarning
         Ill-conditioned basis, pole search not converged, poles at a bound, automatic
-        selection stopped or interrupted (also listed in ``info["warnings"]``).
+        selection stopped or interrupted (also listed in ``warnings`` of the model).
 
     Examples
     --------
@@ -243,7 +245,7 @@ def _check_lines(nf, n_par, n_poles):
 
 def _algebraic(freq, Y, fband, peaks, zeta_max, info):
     """Peak candidates merged with the stable LSCF poles (and which peaks are pending);
-    the LSCF poles of every order go to ``info["stabilisation"]``."""
+    the LSCF poles of every order go to ``info["stabilisation"]`` (then the model's field)."""
     w0, z0, side = peaks
     w_l, z_l, stab = lscf_candidates(freq, Y, fband, int(np.count_nonzero(side == 0)),
                                      zeta_max)
@@ -385,7 +387,7 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=
     if lsq.rcond < 1e-12:
         messages.append(f"ill-conditioned pole basis (reciprocal condition {lsq.rcond:.2e}): "
                         "poles too close together or too many asymptotic terms")
-    info["rcond"] = lsq.rcond
+    info["rcond"] = float(lsq.rcond)
     R, E, F = coefficients_to_model(C, lam, model, asym, ns, na)
     if e:
         R = np.ldexp(R.real, e) + 1j * np.ldexp(R.imag, e)
@@ -393,8 +395,23 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=
         if not (np.all(np.isfinite(R)) and np.all(np.isfinite(E)) and np.all(np.isfinite(F))):
             raise ValueError("frf.H: the residues of data this large overflow (largest "
                              f"|H| = 2^{e}); rescale the data")
-    info["warnings"] = messages
     return ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
                             cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
                             actuators=data.actuators, collocated=data.collocated, band=fband,
-                            info=info)
+                            **_records(info, messages))
+
+
+def _records(info: dict, messages: list) -> dict:
+    """The typed fields of the model (``stabilisation``, ``warnings``, ``search``) from the
+    diagnostics gathered during the fit; what remains (the selection log) stays in ``info``."""
+    info = dict(info)
+    stab = info.pop("stabilisation", None)
+    last = info.pop("search", {})
+    keys = ("optimizer", "model", "asymptotic", "compress_rank", "compression_residual",
+            "lines", "channels", "nfev", "interrupted", "rcond")
+    search = SearchDiagnostics(**{k: info.pop(k) for k in keys if k in info},
+                               converged=bool(last.get("converged", True)),
+                               status=last.get("status"), message=last.get("message"))
+    return {"info": info, "warnings": tuple(messages), "search": search,
+            "stabilisation": None if stab is None else
+            Stabilisation(np.asarray(stab["orders"]), tuple(stab["poles"]))}

@@ -25,6 +25,7 @@ from sdctrl._lib.validate import (
     check_scalar,
     readonly,
 )
+from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
 from sdctrl.identification._realisation import to_statespace
 
 __all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
@@ -55,7 +56,15 @@ class ComplexModeModel:
     band : (float, float), optional
         Frequency band (Hz) of the fit.
     info : dict, optional
-        Diagnostics of the fit (iterations, warnings, optimiser).
+        Diagnostics nobody relies on (the selection log).
+    stabilisation : Stabilisation, optional
+        LSCF poles of every model order (:class:`~sdctrl.identification._fit_records.Stabilisation`)
+        when :func:`sdctrl.identify` chose the poles itself.
+    warnings : tuple of str
+        What :func:`sdctrl.identify` warned about (also issued as warnings).
+    search : SearchDiagnostics, optional
+        How the pole search went (:class:`~sdctrl.identification._fit_records.SearchDiagnostics`:
+        ``nfev``, ``converged``, ``compress_rank``, ``interrupted``...).
     """
 
     poles: np.ndarray
@@ -69,6 +78,9 @@ class ComplexModeModel:
     collocated: tuple[tuple[int, int], ...] = ()
     band: tuple[float, float] | None = None
     info: dict = field(default_factory=dict, repr=False)
+    stabilisation: Stabilisation | None = field(default=None, repr=False)
+    warnings: tuple[str, ...] = field(default=(), repr=False)
+    search: SearchDiagnostics | None = field(default=None, repr=False)
 
     def __post_init__(self):
         lam = as_array(self.poles, "poles", ndim=1, dtype=complex)
@@ -99,6 +111,7 @@ class ComplexModeModel:
         sets(self, "collocated", check_collocated(self.collocated, ns, na, "collocated",
                                                   sensors, actuators))
         sets(self, "info", check_info(self.info))
+        _check_records(self)
 
     # --- display --------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -145,7 +158,7 @@ class ComplexModeModel:
         """Copy with some fields changed (validated again)."""
         kw = {k: getattr(self, k) for k in ("poles", "residues", "E", "F", "in_band", "cost",
                                             "sensors", "actuators", "collocated", "band",
-                                            "info")}
+                                            "info", "stabilisation", "warnings", "search")}
         kw.update(changes)
         return ComplexModeModel(**kw)
 
@@ -338,6 +351,18 @@ class ComplexModeModel:
         ``w_c^2 / (s + w_c)^2`` (2.20), accurate to about ``2 w / w_c`` in the band.
         """
         return to_statespace(self, quantity, omega_c)
+
+
+def _check_records(cm) -> None:
+    """Types of the fit's records: ``stabilisation``, ``warnings`` (strings), ``search``."""
+    for name, kind in (("stabilisation", Stabilisation), ("search", SearchDiagnostics)):
+        if getattr(cm, name) is not None and not isinstance(getattr(cm, name), kind):
+            raise TypeError(f"{name} must be a {kind.__name__} or None, got "
+                            f"{type(getattr(cm, name)).__name__}")
+    w = cm.warnings
+    if isinstance(w, str) or not all(isinstance(m, str) for m in w):
+        raise TypeError("warnings must be a sequence of str")
+    object.__setattr__(cm, "warnings", tuple(w))
 
 
 def _mask(in_band, n: int) -> np.ndarray:

@@ -16,23 +16,112 @@ sets of ``2 n`` modes over which the sums of (3.40)-(3.45) run, so that every su
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
 
+from sdctrl._lib.records import freeze_arrays
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_collocated
 from sdctrl.identification._complex_modes import scale_residues
+from sdctrl.identification._properness import proper_modes
+from sdctrl.identification._reduced_matrices import transformation
 
-__all__ = ["normal_modes", "proper_modes", "scaled_modes", "transformation"]
+__all__ = ["Properness", "normal_modes", "scaled_modes"]
 
-#: above this spectral radius of ``delta`` the correction is reported as large (warning)
-DELTA_WARN = 0.5
-#: at or above this spectral radius ``I - delta^2`` of (3.51) is near singular: refused
-DELTA_MAX = 0.9
 #: poles of magnitude (rad/s) beyond this, or below its inverse, are refused: Omega = |lambda|^2
 #: and the products of (3.44) leave double precision (1e150^2 = 1e300)
 POLE_RANGE = 1e150
+
+
+@dataclass(frozen=True, eq=False)
+class Properness:
+    """How :func:`normal_modes` built a normal-mode model from complex modes (3.3).
+
+    Read as ``nm.properness``; None for models built otherwise (matrices, FE, hybrid).
+    Every field may be None in files written before it existed.
+
+    Attributes
+    ----------
+    collocated : tuple of (int, int)
+        Collocated (sensor, actuator) index pairs that scaled the modes (3.24).
+    cpsi : ndarray, shape (ns, n), complex
+        Scaled complex modal observability (3.24)-(3.25).
+    psib : ndarray, shape (n, na), complex
+        Scaled complex modal controllability.
+    c_T : ndarray, shape (ns, n)
+        Reduced coordinates ``q_T`` (3.46)-(3.47): the identity when ``ns == n``.
+    sensor_eigenvalues : ndarray, shape (ns,) or None
+        Spectrum of ``2 Re(cpsi Lambda cpsi^T)`` (3.47), kept ones first; None when
+        ``ns == n``.
+    psi_proper : ndarray, shape (n, n), complex
+        The proper complex modes (3.51) in the reduced coordinates.
+    properness_before, properness_after : float
+        ``||psi psi^T|| / ||psi psi^H||`` (3.40) before and after the correction.
+    delta, delta_eigenvalues, delta_radius, riccati_residual, newton_iterations
+        The correction (3.51)-(3.52) (:class:`~sdctrl.identification._properness.RiccatiCorrection`);
+        ``delta_radius`` must be well below 1 (3.54).
+    M_T, C_T, K_T : ndarray, shape (n, n)
+        Mass, damping and stiffness of the reduced coordinates (3.44).
+    mass_eigenvalues, stiffness_eigenvalues, damping_eigenvalues : ndarray, shape (n,)
+        Their spectra (damping relative to mass, rad/s).
+    positive_definite : dict of str to bool
+        ``{"mass", "stiffness", "damping"}`` definiteness (3.45).
+    pole_error : float
+        Max relative deviation of the model's poles from the identified ones.
+    residue_error : float
+        Relative misfit of the model's residues to the identified ones.
+    collocation_error : float
+        Max relative ``||phib[:, a] - cphi[s]||`` over the collocated pairs.
+    E_relative_size, F_relative_size : float
+        Size of ``E`` and ``F / w_min^2`` relative to the modal flexibility scale (dropped
+        below ``1e-10``).
+    in_band : ndarray of bool, shape (n,)
+        Per normal mode, the ``in_band`` flag of the identified pole it matches.
+    band : (float, float) or None
+        Band (Hz) of the complex-mode model.
+    poles_used : ndarray of int
+        Poles of the complex-mode model transformed.
+    poles_left_out : ndarray of int
+        The other poles (:func:`sdctrl.hybrid` warns about them).
+    poles_left_out_hz : ndarray
+        Their frequencies (Hz).
+    """
+
+    collocated: tuple | None = None
+    cpsi: np.ndarray | None = None
+    psib: np.ndarray | None = None
+    c_T: np.ndarray | None = None
+    sensor_eigenvalues: np.ndarray | None = None
+    psi_proper: np.ndarray | None = None
+    properness_before: float | None = None
+    properness_after: float | None = None
+    delta: np.ndarray | None = None
+    delta_eigenvalues: np.ndarray | None = None
+    delta_radius: float | None = None
+    riccati_residual: float | None = None
+    newton_iterations: int | None = None
+    M_T: np.ndarray | None = None
+    C_T: np.ndarray | None = None
+    K_T: np.ndarray | None = None
+    mass_eigenvalues: np.ndarray | None = None
+    stiffness_eigenvalues: np.ndarray | None = None
+    damping_eigenvalues: np.ndarray | None = None
+    positive_definite: dict | None = None
+    pole_error: float | None = None
+    residue_error: float | None = None
+    collocation_error: float | None = None
+    E_relative_size: float | None = None
+    F_relative_size: float | None = None
+    in_band: np.ndarray | None = None
+    band: tuple | None = None
+    poles_used: np.ndarray | None = None
+    poles_left_out: np.ndarray | None = None
+    poles_left_out_hz: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter: int = 50):
@@ -58,7 +147,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
        modes (in exact data ``phib[:, a] = cphi[s, :]`` for a collocated pair ``(s, a)``).
 
     The poles of the result are the identified poles (the transformation is exact for
-    proper modes); the maximum relative deviation is reported in ``info``.
+    proper modes); the maximum relative deviation is ``nm.properness.pole_error``.
 
     Parameters
     ----------
@@ -88,20 +177,10 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     NormalModeModel
         ``Omega`` diagonal in (rad/s)^2, full ``Gamma`` in rad/s, ``cphi`` (ns, n),
         ``phib`` (n, na), ``E`` and ``F`` of ``cm`` (None when negligible: below
-        ``1e-10`` of the modal flexibility scale, see ``info["E_relative_size"]`` and
-        ``info["F_relative_size"]``), labels of ``cm``.
-        ``info`` holds the diagnostics: ``properness_before``/``properness_after``
-        (``||psi psi^T|| / ||psi psi^H||``), ``delta`` and ``delta_eigenvalues``,
-        ``delta_radius`` (max modulus, must be well below 1, 3.54),
-        ``riccati_residual``, ``newton_iterations``, ``mass_eigenvalues``,
-        ``damping_eigenvalues``, ``stiffness_eigenvalues`` (of ``M_T, C_T, K_T``),
-        ``positive_definite`` (dict mass/damping/stiffness), ``in_band`` (per normal mode,
-        the flag of the pole it matches), ``band`` (of ``cm``), ``poles_used`` (indices
-        of the poles of ``cm`` transformed), ``poles_left_out`` and ``poles_left_out_hz``
-        (the others, which :func:`sdctrl.hybrid` warns about), ``pole_error`` (max relative
-        deviation of the poles from ``cm.poles``), ``residue_error`` (relative residue
-        misfit of the result), ``collocation_error``, ``c_T`` and ``sensor_eigenvalues``
-        (the (3.47) spectrum, kept ones first), ``M_T``, ``C_T``, ``K_T``.
+        ``1e-10`` of the modal flexibility scale, see ``properness.E_relative_size``),
+        labels of ``cm``, and ``properness``: the :class:`Properness` record of the
+        construction (properness before/after, ``delta``, ``M_T``/``C_T``/``K_T`` and
+        their definiteness, pole and residue errors, the poles used).
 
     Raises
     ------
@@ -169,8 +248,51 @@ def _transform(cm, sel, pairs, tol, maxiter):
     """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm``."""
     from sdctrl.modal._normal_model import NormalModeModel
 
-    ns = cm.ns
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
+    _check_poles(lam, cm.ns)
+    with single_thread():                         # small matrices: BLAS threads only hurt
+        cpsi, psib = scaled_modes(R, pairs)
+        cT, sensor_ev = _reduced_coordinates(cpsi, lam)
+        psi = cT.T @ cpsi                                              # (3.46) LS fit
+        # --- properness (3.40) by the optimal correction (3.51)-(3.52) ------------------
+        psi_p, corr = proper_modes(psi, tol=tol, maxiter=maxiter)
+        # --- exact transformation (3.44) and PD checks (3.45) ---------------------------
+        mats = transformation(psi_p, lam)
+        # --- undamped reduced eigenproblem ------------------------------------------------
+        w2, phi = sla.eigh(mats.K_T, mats.M_T)
+        Gamma = phi.T @ mats.C_T @ phi
+        Gamma = 0.5 * (Gamma + Gamma.T)
+        cphi = cT @ phi
+        # complex modes of the normal-mode model (mu = I): Psi = phi^-1 psi~ = phi^T M psi~
+        Psi = phi.T @ mats.M_T @ psi_p
+        phib = _phib_from_residues(R, cT @ psi_p, Psi)
+    (E, F), sizes = _asymptotic(cm.E, cm.F, lam, R)
+    nm = NormalModeModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=cm.sensors,
+                         actuators=cm.actuators, F=F)
+    # --- checks on the result ------------------------------------------------------------
+    pole_err = _pole_error(nm.poles, lam)
+    if pole_err > 1e-6:
+        warnings.warn(f"normal_modes: poles of the normal-mode model depart from the "
+                      f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
+                      stacklevel=3)
+    left = np.setdiff1d(np.arange(cm.n), sel)
+    Rn = _residues(cphi, Psi, phib)
+    record = Properness(
+        collocated=tuple(pairs), cpsi=cpsi, psib=psib, c_T=cT, sensor_eigenvalues=sensor_ev,
+        psi_proper=psi_p, **vars(corr), **vars(mats), pole_error=pole_err,
+        residue_error=float(np.linalg.norm(Rn - R) / max(np.linalg.norm(R), 1e-300)),
+        collocation_error=max(
+            float(np.linalg.norm(phib[:, a] - cphi[s]) / max(np.linalg.norm(cphi[s]), 1e-300))
+            for s, a in pairs), **sizes,
+        in_band=_mode_in_band(w2, lam, np.asarray(cm.in_band, bool)[sel]),
+        band=None if cm.band is None else tuple(float(v) for v in cm.band),
+        poles_used=np.asarray(sel), poles_left_out=left,
+        poles_left_out_hz=np.asarray(cm.frequency)[left])
+    return nm.replace(properness=record)
+
+
+def _check_poles(lam, ns: int) -> None:
+    """Poles within double-precision reach of (3.44) and at most ``ns`` of them (3.46)."""
     n = lam.size
     if n and not (np.abs(lam).max() <= POLE_RANGE and np.abs(lam).min() >= 1 / POLE_RANGE):
         raise ValueError(f"cm: poles of magnitude {np.abs(lam).min():.3g} to "
@@ -181,63 +303,22 @@ def _transform(cm, sel, pairs, tol, maxiter):
         raise ValueError(f"cm has fewer sensors ({ns}) than modes ({n}): the reduced "
                          "coordinates of (3.46)-(3.47) need ns >= n (the case with fewer "
                          "sensors than modes is not treated, thesis 3.3.3)")
-    with single_thread():                         # small matrices: BLAS threads only hurt
-        cpsi, psib = scaled_modes(R, pairs)
-        # --- reduced coordinates q_T (3.46)-(3.47) -------------------------------------
-        info: dict = {"collocated": pairs}
-        if ns == n:
-            cT = np.eye(n)
-        else:
-            X = 2.0 * ((cpsi * lam) @ cpsi.T).real                    # c M^-1 c^T (3.47)
-            ev, V = np.linalg.eigh(0.5 * (X + X.T))
-            order = np.argsort(-np.abs(ev))
-            ev, V = ev[order], V[:, order]
-            cT = V[:, :n]
-            info["sensor_eigenvalues"] = ev
-            if np.any(ev[:n] <= 0):
-                warnings.warn("normal_modes: the kept eigenvalues of (c psi) Lambda (c psi)^T "
-                              "(3.47) are not all positive; the identified mass will not be "
-                              "positive definite", RuntimeWarning, stacklevel=3)
-        psi = cT.T @ cpsi                                              # (3.46) LS fit
-        # --- properness (3.40) by the optimal correction (3.51)-(3.52) ------------------
-        psi_p, rinfo = proper_modes(psi, tol=tol, maxiter=maxiter)
-        info.update(rinfo)
-        # --- exact transformation (3.44) and PD checks (3.45) ---------------------------
-        MT, CT, KT, pinfo = transformation(psi_p, lam)
-        info.update(pinfo)
-        # --- undamped reduced eigenproblem ------------------------------------------------
-        w2, phi = sla.eigh(KT, MT)
-        Gamma = phi.T @ CT @ phi
-        Gamma = 0.5 * (Gamma + Gamma.T)
-        cphi = cT @ phi
-        # complex modes of the normal-mode model (mu = I): Psi = phi^-1 psi~ = phi^T M psi~
-        Psi = phi.T @ MT @ psi_p
-        phib = _phib_from_residues(R, cT @ psi_p, Psi)
 
-    info.update({"c_T": cT, "M_T": MT, "C_T": CT, "K_T": KT,
-                 "cpsi": cpsi, "psib": psib, "psi_proper": psi_p})
-    E, F = _asymptotic(cm.E, cm.F, lam, R, info)
-    nm = NormalModeModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=cm.sensors,
-                         actuators=cm.actuators, F=F)
-    # --- checks on the result ------------------------------------------------------------
-    pole_err = _pole_error(nm.poles, lam)
-    Rn = _residues(cphi, Psi, phib)
-    info["pole_error"] = pole_err
-    info["residue_error"] = float(np.linalg.norm(Rn - R) / max(np.linalg.norm(R), 1e-300))
-    info["collocation_error"] = max(
-        float(np.linalg.norm(phib[:, a] - cphi[s]) / max(np.linalg.norm(cphi[s]), 1e-300))
-        for s, a in pairs)
-    if pole_err > 1e-6:
-        warnings.warn(f"normal_modes: poles of the normal-mode model depart from the "
-                      f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
-                      stacklevel=3)
-    info["poles_used"] = np.asarray(sel)
-    left = np.setdiff1d(np.arange(cm.n), sel)
-    info["poles_left_out"] = left
-    info["poles_left_out_hz"] = np.asarray(cm.frequency)[left]
-    info["in_band"] = _mode_in_band(w2, lam, np.asarray(cm.in_band, bool)[sel])
-    info["band"] = None if cm.band is None else tuple(float(v) for v in cm.band)
-    return nm.replace(info={**info, "source": "normal_modes"})
+
+def _reduced_coordinates(cpsi, lam):
+    """Reduced coordinates ``c_T`` (3.46)-(3.47) and the (3.47) spectrum (None if ns == n)."""
+    ns, n = cpsi.shape
+    if ns == n:
+        return np.eye(n), None
+    X = 2.0 * ((cpsi * lam) @ cpsi.T).real                    # c M^-1 c^T (3.47)
+    ev, V = np.linalg.eigh(0.5 * (X + X.T))
+    order = np.argsort(-np.abs(ev))
+    ev, V = ev[order], V[:, order]
+    if np.any(ev[:n] <= 0):
+        warnings.warn("normal_modes: the kept eigenvalues of (c psi) Lambda (c psi)^T "
+                      "(3.47) are not all positive; the identified mass will not be "
+                      "positive definite", RuntimeWarning, stacklevel=4)
+    return V[:, :n], ev
 
 
 def _mode_in_band(w2, lam, in_band) -> np.ndarray:
@@ -288,161 +369,9 @@ def scaled_modes(residues: np.ndarray, pairs) -> tuple[np.ndarray, np.ndarray]:
     return cpsi, psib
 
 
-def proper_modes(psi: np.ndarray, tol: float = 1e-13, maxiter: int = 50):
-    """Closest proper complex modes, eq. (3.51), by the small real root of (3.52).
-
-    With ``A0 = psi psi^T`` and ``G = conj(psi) psi^T`` summed over the ``2 n`` modes
-    (both real symmetric), the Riccati equation (3.52) reads
-    ``A0 - delta G - G delta + delta A0 delta = 0``.  Newton's method from
-    ``delta = 0`` solves, at each step, the Sylvester equation
-    ``(G - delta A0) X + X (G - A0 delta) = F(delta)`` and converges to the root that
-    tends to 0 with the properness error (a generic stable-subspace Riccati solver may
-    return a large root, useless here).  The corrected modes are
-    ``psi~ = (I - delta^2)^-1 (psi - delta conj(psi))``.
-
-    The thesis proposes the real positive-definite root.  In practice the small root is
-    real and symmetric but generally *indefinite* (eigenvalues of both signs, of the order
-    of the properness error); it is the anti-stabilising solution of the CARE
-    ``G X + X G - X A0 X - A0 = 0`` (Hamiltonian ``[[G, -A0], [A0, -G]]``), while the
-    stabilising one returned by standard solvers has ``|eig| >> 1`` and violates the
-    minimum condition (3.54), ``|eig(delta)| < 1``.
-
-    Parameters
-    ----------
-    psi : ndarray, shape (n, n)
-        Complex modes (upper-half-plane poles) in the reduced coordinates.
-    tol : float
-        Relative tolerance on the Riccati residual.
-    maxiter : int
-        Maximum Newton iterations.
-
-    Returns
-    -------
-    psi_p : ndarray, shape (n, n)
-        Proper complex modes.
-    info : dict
-        ``delta``, ``delta_eigenvalues``, ``delta_radius``, ``riccati_residual``,
-        ``newton_iterations``, ``properness_before``, ``properness_after``.
-    """
-    n = psi.shape[0]
-    A0 = 2.0 * (psi @ psi.T).real
-    G = 2.0 * (psi @ psi.conj().T).real
-    A0, G = 0.5 * (A0 + A0.T), 0.5 * (G + G.T)
-    scale = np.linalg.norm(G)
-    before = float(np.linalg.norm(A0) / scale)
-    delta = np.zeros((n, n))
-    res = np.linalg.norm(A0) / scale
-    it = 0
-    while res > tol and it < maxiter:
-        F = A0 - delta @ G - G @ delta + delta @ A0 @ delta
-        X = sla.solve_sylvester(G - delta @ A0, G - A0 @ delta, F)
-        delta = delta + 0.5 * (X + X.T)
-        it += 1
-        F = A0 - delta @ G - G @ delta + delta @ A0 @ delta
-        new = np.linalg.norm(F) / scale
-        if not np.isfinite(new):
-            break
-        if it > 5 and new > 0.5 * res and new > 1e3 * tol:
-            res = new
-            break                                      # stagnation: not converging
-        res = new
-    ev = np.linalg.eigvals(delta)
-    radius = float(np.abs(ev).max()) if n else 0.0
-    ev = np.sort(ev.real) if np.allclose(ev.imag, 0) else ev       # delta is symmetric
-    if not np.isfinite(res) or res > max(1e3 * tol, 1e-8) or radius >= DELTA_MAX:
-        raise ValueError(
-            f"cm: the Riccati equation (3.52) has no small real root from delta = 0 "
-            f"(residual {res:.2e}, max |eig(delta)| = {radius:.3g} after {it} Newton steps); "
-            f"the identified complex modes are too far from proper (properness error "
-            f"{before:.2e}) or badly scaled")
-    if radius > DELTA_WARN:
-        warnings.warn(f"normal_modes: large properness correction, max |eig(delta)| = "
-                      f"{radius:.3g} (should be well below 1, 3.54)", RuntimeWarning,
-                      stacklevel=3)
-    psi_p = np.linalg.solve(np.eye(n) - delta @ delta, psi - delta @ psi.conj())
-    after = float(np.linalg.norm(2.0 * (psi_p @ psi_p.T).real)
-                  / np.linalg.norm(2.0 * (psi_p @ psi_p.conj().T).real))
-    return psi_p, {"delta": delta, "delta_eigenvalues": ev, "delta_radius": radius,
-                   "riccati_residual": float(res), "newton_iterations": it,
-                   "properness_before": before, "properness_after": after}
-
-
-def transformation(psi: np.ndarray, lam: np.ndarray):
-    """Exact transformation (3.44) of proper complex modes to ``M_T, C_T, K_T``; (3.45).
-
-    ``M_T = (psi Lambda psi^T)^-1``, ``C_T = -M_T (psi Lambda^2 psi^T) M_T`` and
-    ``K_T = -(psi Lambda^-1 psi^T)^-1``, sums over the ``2 n`` modes.
-
-    Parameters
-    ----------
-    psi : ndarray, shape (n, n), complex
-        Proper complex modes (one column per upper half-plane pole).
-    lam : ndarray, shape (n,), complex
-        The poles (rad/s).
-
-    Returns
-    -------
-    MT, CT, KT : ndarray, shape (n, n)
-    info : dict
-        ``mass_eigenvalues``, ``damping_eigenvalues``, ``stiffness_eigenvalues`` and
-        ``positive_definite`` (dict of bools).
-
-    Raises
-    ------
-    ValueError
-        When the identified mass or stiffness is not positive definite (3.45).
-    """
-    def ssum(d):
-        X = 2.0 * ((psi * d) @ psi.T).real
-        return 0.5 * (X + X.T)
-
-    Minv, S2, Kinv = ssum(lam), ssum(lam**2), -ssum(1.0 / lam)
-    em, ek = np.linalg.eigvalsh(Minv), np.linalg.eigvalsh(Kinv)
-    pd = {"mass": bool(em.min() > 0), "stiffness": bool(ek.min() > 0)}
-    if not pd["mass"]:
-        raise ValueError(
-            f"cm: the identified mass (psi Lambda psi^T)^-1 (3.44) is not positive definite "
-            f"(3.45; eigenvalues of its inverse {np.array2string(em, precision=3)}): the "
-            f"complex modes are badly identified, badly scaled or coupled to modes outside "
-            f"the model")
-    if not pd["stiffness"]:
-        raise ValueError(
-            f"cm: the identified stiffness -(psi Lambda^-1 psi^T)^-1 (3.44) is not positive "
-            f"definite (3.45; eigenvalues of its inverse {np.array2string(ek, precision=3)})")
-    MT = np.linalg.inv(Minv)
-    MT = 0.5 * (MT + MT.T)
-    KT = np.linalg.inv(Kinv)
-    KT = 0.5 * (KT + KT.T)
-    CT = -MT @ S2 @ MT
-    CT = 0.5 * (CT + CT.T)
-    ec = sla.eigh(CT, MT, eigvals_only=True)       # damping relative to mass: rad/s
-    pd["damping"] = bool(ec.min() >= -1e-12 * max(np.abs(ec).max(), 1e-300))
-    if not pd["damping"]:
-        warnings.warn(_damping_advice(ec), RuntimeWarning, stacklevel=4)
-    info = {"mass_eigenvalues": np.linalg.eigvalsh(MT), "stiffness_eigenvalues":
-            np.linalg.eigvalsh(KT), "damping_eigenvalues": ec, "positive_definite": pd}
-    return MT, CT, KT, info
-
-
-# --- helpers ---------------------------------------------------------------------------------
-def _damping_advice(ec: np.ndarray) -> str:
-    """The non-positive damping warning (3.45): what was found and what to do about it."""
-    rel = ec.min() / max(np.abs(ec).max(), 1e-300)
-    cause = ("small: typically noise on a lightly damped or out-of-band mode; identify with "
-             "more lines or less noise around it" if rel > -1e-2 else
-             "large: look for a pole that is not a structural mode (cm.in_band, "
-             "cm.singular_value_ratios(); leave it out with modes=...) or a wrong collocated "
-             "pair (same point, same direction, same sign)")
-    return (f"normal_modes: the identified damping matrix is not positive semi-definite "
-            f"(3.45; min eigenvalue {ec.min():.3g} rad/s against max {ec.max():.3g}, "
-            f"{rel:.1e} of it). The model keeps the identified stable poles and can be used "
-            f"as is, but it is not passive along one direction, which matters for passivity "
-            f"arguments and bounds on Gamma (5.2.2). This one is {cause}; "
-            f"nm.info['damping_eigenvalues'] has the spectrum.")
-
-
-def _asymptotic(E, F, lam, R, info, rtol: float = 1e-10):
-    """``E`` and ``F`` of the complex-mode model, None when negligible (round-off of a fit).
+def _asymptotic(E, F, lam, R, rtol: float = 1e-10):
+    """``E`` and ``F`` of the complex-mode model, None when negligible (round-off of a fit),
+    and their relative sizes (``E_relative_size``, ``F_relative_size``).
 
     ``E`` is compared with the off-resonance flexibility scale of the modes,
     ``max_j max|R_j| / |lambda_j|``, and ``F`` through ``F / w^2`` at the lowest pole; a
@@ -451,13 +380,13 @@ def _asymptotic(E, F, lam, R, info, rtol: float = 1e-10):
     """
     ref = max(float(np.max(np.abs(R).max(axis=(1, 2)) / np.abs(lam))), 1e-300)
     wmin = float(np.abs(lam).min())
-    out = []
+    out, sizes = [], {}
     for name, X, scale in (("E", E, 1.0), ("F", F, wmin**-2)):
         size = float(np.abs(X).max()) * scale if X is not None and np.size(X) else 0.0
         keep = size > rtol * ref
-        info[f"{name}_relative_size"] = size / ref
+        sizes[f"{name}_relative_size"] = size / ref
         out.append(np.array(X, float) if keep else None)
-    return out
+    return out, sizes
 
 
 def _mode_selection(modes, n: int) -> np.ndarray:

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sdctrl.modal._operations import modified, with_feedback
+from sdctrl.modal._operations import modified, poles, with_feedback
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
@@ -76,6 +76,15 @@ class NormalModeModel:
         Low-frequency (residual mass) correction of truncated low-frequency modes: the
         displacement response carries ``F/s^2`` (2.23); ``to_statespace`` realises it
         exactly with one rigid-body correction mode per actuator (2.24).
+    properness : Properness, optional
+        How :func:`sdctrl.normal_modes` built the model from complex modes (3.3): see
+        :class:`~sdctrl.identification._proper.Properness`; None for other models.
+    transformation : array_like, shape (n, n), optional
+        ``T`` of the last :meth:`modified` / :meth:`with_feedback` (old modal coordinates =
+        ``T`` new ones); None for a model never re-diagonalised.
+    n_static : int
+        Static correction modes (2.21)-(2.22) among the modes: those appended last by
+        ``FEModel.normal_mode_model(..., static=True)``, kind ``"static"`` of a hybrid.
     """
 
     Omega: np.ndarray
@@ -90,6 +99,9 @@ class NormalModeModel:
     omega_c: float | None = None
     info: dict = field(default_factory=dict, compare=False, repr=False)
     F: np.ndarray | None = None
+    properness: object = None
+    transformation: np.ndarray | None = None
+    n_static: int = 0
 
     def __post_init__(self):
         Omega = check_square(self.Omega, "Omega")
@@ -136,6 +148,13 @@ class NormalModeModel:
         sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
         sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
         sets(self, "info", check_info(self.info))
+        if self.transformation is not None:
+            sets(self, "transformation", readonly(check_square(self.transformation,
+                                                               "transformation")))
+        if isinstance(self.n_static, bool) or not isinstance(self.n_static, int | np.integer) \
+                or self.n_static < 0:
+            raise ValueError(f"n_static must be a non-negative integer, got {self.n_static!r}")
+        sets(self, "n_static", int(self.n_static))
 
     # --- display ------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -190,7 +209,8 @@ class NormalModeModel:
     def replace(self, **changes) -> NormalModeModel:
         """Copy with some fields changed (validated again)."""
         kw = {k: getattr(self, k) for k in ("Omega", "Gamma", "cphi", "phib", "E", "sensors",
-                                            "actuators", "shapes", "dofs", "omega_c", "info", "F")}
+                                            "actuators", "shapes", "dofs", "omega_c", "info", "F",
+                                            "properness", "transformation", "n_static")}
         kw.update(changes)
         return NormalModeModel(**kw)
 
@@ -303,36 +323,6 @@ class NormalModeModel:
         control.StateSpace
         """
         return to_statespace(self, quantity, omega_c)
-
-
-def poles(model: NormalModeModel) -> np.ndarray:
-    """Poles of ``s^2 I + s Gamma + Omega`` (rad/s) with Im >= 0, sorted by modulus.
-
-    Real (overdamped) poles are listed as well; for each underdamped mode only the
-    upper half-plane pole is kept.
-
-    Parameters
-    ----------
-    model : NormalModeModel
-        The model.
-
-    Returns
-    -------
-    ndarray, complex
-
-    Examples
-    --------
-    >>> import numpy as np, sdctrl as sd
-    >>> nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.4]), [[1.0]], [[1.0]])
-    >>> np.round(poles(nm), 4)
-    array([-0.2+1.99j])
-    """
-    n = model.n
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
-    lam = np.linalg.eigvals(A)
-    scale = max(np.abs(lam).max(), 1.0)
-    lam = lam[lam.imag >= -1e-12 * scale]
-    return lam[np.argsort(np.abs(lam))]
 
 
 def frf(model: NormalModeModel, freq, quantity: str = "displacement"):

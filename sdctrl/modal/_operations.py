@@ -16,7 +16,7 @@ import numpy as np
 
 from sdctrl._lib.validate import as_array, check_square
 
-__all__ = ["gain", "modified", "renormalised", "sym_change", "with_feedback"]
+__all__ = ["gain", "modified", "poles", "renormalised", "sym_change", "with_feedback"]
 
 
 def sym_change(x, name: str, n: int) -> np.ndarray:
@@ -58,7 +58,7 @@ def renormalised(model, mass, Gamma, Omega, **info):
     mass, Gamma, Omega : ndarray, shape (n, n)
         Modal mass, damping (rad/s) and stiffness ((rad/s)^2) in the model's coordinates.
     **info
-        Entries added to the model's ``info`` (with ``"transformation"``: ``T``).
+        Entries added to the model's ``info``; ``T`` goes to its ``transformation``.
 
     Returns
     -------
@@ -80,7 +80,7 @@ def renormalised(model, mass, Gamma, Omega, **info):
     return model.replace(
         Omega=np.diag(w2), Gamma=0.5 * (G + G.T), cphi=model.cphi @ T, phib=T.T @ model.phib,
         shapes=None if model.shapes is None else model.shapes @ T,
-        info={**model.info, **info, "transformation": T})
+        info={**model.info, **info}, transformation=T)
 
 
 def modified(model, dmu=None, dGamma=None, dOmega=None):
@@ -104,7 +104,7 @@ def modified(model, dmu=None, dGamma=None, dOmega=None):
     Returns
     -------
     NormalModeModel
-        ``info["transformation"]`` holds ``T`` (old modal coordinates = ``T`` new ones).
+        ``transformation`` holds ``T`` (old modal coordinates = ``T`` new ones).
 
     Raises
     ------
@@ -220,3 +220,33 @@ def with_feedback(model, b, c, kp=0.0, kv=0.0, modal: bool = False):
                              "symmetric): close it with control.feedback on to_statespace()")
     return renormalised(model, np.eye(n), model.Gamma + 0.5 * (dC + dC.T),
                         model.Omega + 0.5 * (dK + dK.T), feedback={"kp": Kp, "kv": Kv})
+
+
+def poles(model) -> np.ndarray:
+    """Poles of ``s^2 I + s Gamma + Omega`` (rad/s) with Im >= 0, sorted by modulus.
+
+    Real (overdamped) poles are listed as well; for each underdamped mode only the
+    upper half-plane pole is kept.
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        The model.
+
+    Returns
+    -------
+    ndarray, complex
+
+    Examples
+    --------
+    >>> import numpy as np, sdctrl as sd
+    >>> nm = sd.NormalModeModel(np.diag([4.0]), np.diag([0.4]), [[1.0]], [[1.0]])
+    >>> np.round(poles(nm), 4)
+    array([-0.2+1.99j])
+    """
+    n = model.n
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
+    lam = np.linalg.eigvals(A)
+    scale = max(np.abs(lam).max(), 1.0)
+    lam = lam[lam.imag >= -1e-12 * scale]
+    return lam[np.argsort(np.abs(lam))]

@@ -68,8 +68,11 @@ class RobustResult:
         Upper bound of mu at ``mu_freq``.
     info : dict
         Diagnostics: ``mu_lower``, ``mu_upper``, ``crossing_frequency`` (Hz, of ``delta``),
-        ``n_freq``, ``n_dg`` (frequencies needing the D-G optimisation), ``certified`` (the
-        certified intervals cover every frequency), ``eps``, ``seconds``.
+        ``n_freq``, ``n_dg`` (frequencies needing the D-G optimisation), ``eps``, ``seconds``.
+    certified : bool
+        True when the certified intervals of the upper bound cover every frequency, so that
+        ``margin`` holds between the computed frequencies too (always True without
+        uncertain parameters, False for an unstable nominal loop).
     """
 
     margin: float
@@ -80,6 +83,7 @@ class RobustResult:
     mu_freq: np.ndarray
     mu: np.ndarray
     info: dict
+    certified: bool = False
 
     @property
     def delta(self) -> np.ndarray:
@@ -236,7 +240,7 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
         return RobustResult(0.0, 0.0, False, 0.0, np.zeros(nb), np.zeros(0), np.zeros(0), info)
     if nb == 0:
         return RobustResult(np.inf, np.inf, True, np.nan, np.zeros(0), np.zeros(0), np.zeros(0),
-                            info)
+                            info, certified=True)
     with single_thread(), progress_bar(desc="mu upper bound", unit="freq",
                                             enabled=progress) as bar:
         low = destabilise(fs, reps, n_random=n_directions, seed=seed)
@@ -268,10 +272,10 @@ def robust_stability(um, controller, freq=None, eps: float = 0.005, n_directions
                       "margin holds at the computed frequencies only", stacklevel=2)
     info.update(mu_lower=1.0 / low.alpha, mu_upper=res.level,
                 crossing_frequency=low.frequency / (2 * np.pi), n_freq=len(res.w),
-                n_dg=res.n_dg, certified=res.certified, intervals=len(res.intervals),
-                seconds=time.perf_counter() - t0)
+                n_dg=res.n_dg, intervals=len(res.intervals), seconds=time.perf_counter() - t0)
     return RobustResult(float(margin), float(low.alpha), stable, res.peak_w / (2 * np.pi),
-                        low.delta, res.w / (2 * np.pi), res.bound, info)
+                        low.delta, res.w / (2 * np.pi), res.bound, info,
+                        certified=bool(res.certified))
 
 
 def _sample_gain(fs, chan_block, perf, out, inp, w, d):

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from sdctrl.storage._record_codecs import legacy_complex, legacy_hybrid, legacy_modal
 from sdctrl.storage._registry import register_attrs
 from sdctrl.storage._values import short
 
@@ -48,19 +49,47 @@ def _build_robust(**values):
     for k in ("margin", "margin_lower", "frequency"):
         if k in values and (isinstance(values[k], bool) or not isinstance(values[k], int | float)):
             raise TypeError(f"{k} must be a number")
-    if "stable" in values and not isinstance(values["stable"], bool):
-        raise TypeError("stable must be a bool")
+    info = values.get("info")
+    if "certified" not in values and isinstance(info, dict) and "certified" in info:
+        info = dict(info)                    # a file of sdctrl 0.1: the flag was in info
+        values = {**values, "info": info, "certified": info.pop("certified")}
+    for k in ("stable", "certified"):
+        if k in values and not isinstance(values[k], bool):
+            raise TypeError(f"{k} must be a bool")
     return RobustResult(**values)
 
 
-_MODAL = {k: "f" for k in ("Omega", "Gamma", "cphi", "phib", "E", "F", "shapes")}
+_MODAL = {k: "f" for k in ("Omega", "Gamma", "cphi", "phib", "E", "F", "shapes",
+                            "transformation")}
+
+
+def _build_complex(**values):
+    from sdctrl.identification._complex_modes import ComplexModeModel
+
+    return ComplexModeModel(**legacy_complex(values))
+
+
+def _build_normal(**values):
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    return NormalModeModel(**legacy_modal(values))
+
+
+def _build_hybrid(**values):
+    from sdctrl.hybrids._predictions import HybridModel
+
+    return HybridModel(**legacy_hybrid(values))
+
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
                 "units"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
-               kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"})
-register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL)
-register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL)
+               kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"},
+               build=_build_complex)
+register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL,
+               build=_build_normal)
+register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL,
+               build=_build_hybrid)
 register_attrs("FEModel", "sdctrl.fe:FEModel",
                ("M", "K", "C", "dofs", "nodes", "elements", "assembly"),
                kinds={"M": "f", "K": "f", "C": "f"})

@@ -143,7 +143,7 @@ def _build_cost_problem(rm, omega, logH, parameters):
 
 
 def _build_update(values, fe, cost_before, cost_after, parameters, pairing, stages, model,
-                  info=None):
+                  info=None, damping=None, test_modes=None):
     """:class:`~sdctrl.updating._update_fit.UpdateResult` checked field by field."""
     from sdctrl.fe import FEModel
     from sdctrl.modal._normal_model import NormalModeModel
@@ -166,9 +166,15 @@ def _build_update(values, fe, cost_before, cost_after, parameters, pairing, stag
     for s in stages:
         _array(s["values"], "update stage values", "f", (len(pars),))
         _number(s["cost"], "update stage cost", finite=False)
+    info = {} if info is None else dict(info)
+    if damping is None and test_modes is None:   # sdctrl 0.1: the sources were in info
+        damping, test_modes = info.pop("damping", None), info.pop("test_modes", None)
+    for name, text in (("damping", damping), ("test_modes", test_modes)):
+        if text is not None and not isinstance(text, str):
+            raise _fail(f"update {name}", text)
     return UpdateResult(values, fe, _number(cost_before, "update cost_before", False),
                         _number(cost_after, "update cost_after", False), pars, pairing,
-                        stages, model, {} if info is None else info)
+                        stages, model, info, damping=damping, test_modes=test_modes)
 
 
 def _build_identifiability(names, sensitivity, correlation, confounded, weak, error_level,

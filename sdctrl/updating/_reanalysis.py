@@ -74,7 +74,7 @@ def reanalysis(model, dM=None, dC=None, dK=None):
     Returns
     -------
     NormalModeModel
-        Same class as ``model``, on the modified normal modes; ``info["transformation"]``
+        Same class as ``model``, on the modified normal modes; ``transformation``
         maps the new modal coordinates to the old ones.
 
     Raises

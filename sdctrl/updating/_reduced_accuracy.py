@@ -48,7 +48,9 @@ class ReanalysisErrors:
     predictions : dict
         Method -> predicted frequencies (nv, k) in Hz.
     info : dict
-        Basis sizes (``n_modes``, ``n_static``).
+        Diagnostics nobody relies on.
+    n_modes, n_static : int, optional
+        Sizes of the reduced basis: normal modes and static correction modes (4.23).
     """
 
     parameter: str
@@ -57,6 +59,8 @@ class ReanalysisErrors:
     reference: np.ndarray
     predictions: dict
     info: dict = field(default_factory=dict, repr=False)
+    n_modes: int | None = None
+    n_static: int | None = None
 
     def __repr__(self) -> str:
         worst = ", ".join(f"{m} {self.max_error(m).max():.2g}" for m in self.predictions)
@@ -103,8 +107,8 @@ class ReanalysisErrors:
         rows = [[f"{v:.4g}"] + [f"{self.max_error(m)[i]:.2e}" for m in methods]
                 for i, v in enumerate(self.values)]
         head = (f"Largest relative error of modes {(self.modes + 1).tolist()} against the full "
-                f"FE solution ({self.info.get('n_modes')} normal modes, "
-                f"{self.info.get('n_static')} static correction modes):")
+                f"FE solution ({self.n_modes} normal modes, "
+                f"{self.n_static} static correction modes):")
         return head + "\n\n" + markdown_table([f"p ({self.parameter})"] + methods, rows)
 
 
@@ -210,4 +214,4 @@ def reanalysis_errors(fe, parameter: Parameter, values, *, n_modes: int = 25,
                           enabled=progress):
         ref.append(f[index])
     return ReanalysisErrors(parameter.name, v, index, np.array(ref), pred,
-                            {"n_modes": int(n_modes), "n_static": bs.n_static})
+                            n_modes=int(n_modes), n_static=bs.n_static)

@@ -96,7 +96,10 @@ class ReducedBasis:
     n_rigid : int
         Number of rigid-body modes among them (zero frequency).
     info : dict
-        What the static modes correct (``"static_from"``: list of ``(source, count)``).
+        Diagnostics nobody relies on.
+    static_from : tuple of (str, int)
+        What the static modes correct, in the order of the columns: ``(source, count)``
+        per call of :meth:`augmented` (``"inputs"``, a parameter's name...).
     """
 
     fe: object
@@ -106,8 +109,10 @@ class ReducedBasis:
     n_modes: int
     n_rigid: int = 0
     info: dict = field(default_factory=dict, repr=False)
+    static_from: tuple = ()
 
     def __post_init__(self):
+        object.__setattr__(self, "static_from", tuple(self.static_from))
         for name in ("T", "Kr", "Mr"):
             a = np.array(getattr(self, name), float)
             a.setflags(write=False)
@@ -221,7 +226,7 @@ class ReducedBasis:
         max_modes : int, optional
             Keep at most this many principal static modes (largest first).
         source : str
-            Name recorded in ``info["static_from"]``.
+            Name recorded in :attr:`static_from`.
 
         Returns
         -------
@@ -271,9 +276,8 @@ class ReducedBasis:
         Kr = _bordered(self.Kr, T.T @ KV, np.diag(w2))
         Mr = _bordered(self.Mr, T.T @ MV, V.T @ MV)        # only the new blocks: O(N n k)
         Tn = np.hstack([T, V])
-        info = dict(self.info)
-        info["static_from"] = list(info.get("static_from", [])) + [(source, V.shape[1])]
-        return ReducedBasis(self.fe, Tn, Kr, Mr, self.n_modes, self.n_rigid, info)
+        return ReducedBasis(self.fe, Tn, Kr, Mr, self.n_modes, self.n_rigid, dict(self.info),
+                            self.static_from + ((source, V.shape[1]),))
 
 
 def _normal_modes(fe, n_modes, fmax):
@@ -362,8 +366,7 @@ def reduced_basis(fe, parameters=(), inputs=None, *, fmax: float | None = None,
     _f, phi = _normal_modes(fe, n_modes, fmax)
     lam = np.einsum("ij,ij->j", phi, np.asarray(fe.K @ phi))
     rigid = int(np.sum(lam < RIGID_RTOL * diagonal_scale(fe.K, fe.M)[1]))
-    basis = ReducedBasis(fe, phi, np.diag(lam), _project(phi, fe.M), phi.shape[1], rigid,
-                         {"static_from": []})
+    basis = ReducedBasis(fe, phi, np.diag(lam), _project(phi, fe.M), phi.shape[1], rigid)
     if inputs is not None:
         B, _ = shapes_on_dofs(inputs, fe.N, fe.dofs, "inputs")
         basis = basis.augmented(B, rtol, source="inputs")

@@ -73,8 +73,13 @@ class UpdateResult:
         static correction modes, the damping of the update), with shapes on ``fe.dofs``:
         ``model.frf(freq, quantity)`` overlays the data.
     info : dict
-        ``damping`` (how the damping was modelled), ``test_modes`` (their source),
         ``basis`` (sizes), ``time`` (s), ``strategy``.
+    damping : str
+        How the damping was modelled (``"FE damping matrix C (projected)"``, a given modal
+        ratio, or modal damping from the data and where it came from).
+    test_modes : str
+        Source of the test modes paired with the FE modes (4.9): ``"identified complex
+        modes"``, ``"identified normal modes"``, ``"given normal modes"``...
     """
 
     values: dict
@@ -86,6 +91,8 @@ class UpdateResult:
     stages: tuple
     model: object
     info: dict = field(default_factory=dict, repr=False)
+    damping: str | None = None
+    test_modes: str | None = None
 
     def __repr__(self) -> str:
         vals = ", ".join(f"{k}={v:.4g}" for k, v in self.values.items())
@@ -104,7 +111,7 @@ class UpdateResult:
         out = ["## FE model update (logLS, reanalysis)", "",
                markdown_table(["parameter", "initial", "final", "bounds", "description"], rows),
                "", (f"logLS cost (3.12): before **{self.cost_before:.4g}**, after "
-               f"**{self.cost_after:.4g}** (damping: {self.info.get('damping', '?')})."), ""]
+               f"**{self.cost_after:.4g}** (damping: {self.damping or '?'})."), ""]
         st = [(s["stage"], ", ".join(f"{v:.4g}" for v in s["values"]), f"{s['cost']:.4g}",
                s["nfev"]) for s in self.stages]
         out += [markdown_table(["stage", "values", "cost", "evaluations"], st), ""]
@@ -301,7 +308,8 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
                        enabled=progress)
     try:
         with single_thread():
-            prob = build_problem(fe, measured, pars, choice, modes, fmax=fmax, loads=loads)
+            setup = UpdateSetup(measured, pars, choice, modes, fmax, loads)
+            prob = setup.problem(fe)
             if modes.n == 0:
                 warnings.warn("update: no mode identified in the test; frequencies and MAC "
                               "are not reported", RuntimeWarning, stacklevel=2)
@@ -319,9 +327,8 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
                 stages.append({"stage": "logLS (3.12) on the reduced model", "values": p.copy(),
                                "cost": prob.cost(p), "nfev": p_n})
                 bar.update()
-            fe1, prob1, p, cost_after = _resolve(fe, measured, pars, choice, modes, prob, p,
-                                                 (lo, hi, scale, nfev_max), fmax, loads,
-                                                 stages, strategy)
+            fe1, prob1, p, cost_after = _resolve(fe, setup, prob, p,
+                                                 (lo, hi, scale, nfev_max), stages, strategy)
             bar.update()
             after = prob1.pairing(np.zeros(npar)) if modes.n else None
             model = _normal_mode_model(prob1, fe1, measured)
@@ -335,9 +342,9 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
         values={par.name: float(v) for par, v in zip(pars, p)}, fe=fe1,
         cost_before=float(cost_before), cost_after=float(cost_after), parameters=pars,
         pairing=_pairing_table(modes, before, after), stages=tuple(stages), model=model,
-        info={"damping": _damping_text(choice, modes), "test_modes": modes.source,
-              "basis": {"modes": prob1.basis.n_modes, "static": prob1.basis.n_static},
-              "strategy": strategy, "time": time.perf_counter() - t0})
+        info={"basis": {"modes": prob1.basis.n_modes, "static": prob1.basis.n_static},
+              "strategy": strategy, "time": time.perf_counter() - t0},
+        damping=_damping_text(choice, modes), test_modes=modes.source)
 
 
 def _frequency_stage(prob, p, lo, hi, scale, nfev_max):
@@ -349,13 +356,57 @@ def _frequency_stage(prob, p, lo, hi, scale, nfev_max):
     return _solve(prob.frequency_residual, p, lo, hi, scale, 1e-4, nfev_max, "frequency")
 
 
-def _resolve(fe, measured, pars, choice, modes, prob, p, opts, fmax, loads, stages, strategy):
+@dataclass(frozen=True, eq=False)
+class UpdateSetup:
+    """What every update problem of one :func:`update` call shares (4.15)-(4.23).
+
+    Attributes
+    ----------
+    measured : PlacedTest
+        The test placed on the FE DOFs.
+    parameters : tuple of Parameter
+        The parameters.
+    damping : tuple
+        The damping choice (:func:`damping_choice`).
+    modes : MeasuredModes
+        The test modes paired with the FE modes (4.9).
+    fmax : float
+        Highest frequency (Hz) of the normal modes of the reduced basis.
+    loads : array_like or None
+        Extra loads of the static correction (4.23).
+    """
+
+    measured: object
+    parameters: tuple
+    damping: tuple
+    modes: object
+    fmax: float
+    loads: object = None
+
+    def problem(self, fe):
+        """The update problem (reduced model, costs) of ``fe`` (:func:`build_problem`).
+
+        Parameters
+        ----------
+        fe : FEModel
+            The FE model the problem is built around (``p = 0``).
+
+        Returns
+        -------
+        UpdateProblem
+        """
+        return build_problem(fe, self.measured, self.parameters, self.damping, self.modes,
+                             fmax=self.fmax, loads=self.loads)
+
+
+def _resolve(fe, setup: UpdateSetup, prob, p, opts, stages, strategy):
     """Stage 3: solve the full model at ``p`` again; refine when the reduced model drifted."""
     lo, hi, scale, nfev_max = opts
+    pars = setup.parameters
     reduced_cost = prob.cost(p)
     for _ in range(3):
         fe1 = apply_parameters(fe, pars, p)
-        prob1 = build_problem(fe1, measured, pars, choice, modes, fmax=fmax, loads=loads)
+        prob1 = setup.problem(fe1)
         q0 = np.zeros(len(pars))
         cost = prob1.cost(q0)
         stages.append({"stage": "full FE solved again", "values": p.copy(), "cost": cost,
@@ -368,7 +419,7 @@ def _resolve(fe, measured, pars, choice, modes, prob, p, opts, fmax, loads, stag
         stages.append({"stage": "logLS around the new solution", "values": p.copy(),
                        "cost": reduced_cost, "nfev": n})
     fe1 = apply_parameters(fe, pars, p)
-    prob1 = build_problem(fe1, measured, pars, choice, modes, fmax=fmax, loads=loads)
+    prob1 = setup.problem(fe1)
     return fe1, prob1, p, prob1.cost(np.zeros(len(pars)))
 
 

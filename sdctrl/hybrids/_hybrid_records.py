@@ -1,0 +1,142 @@
+"""How a hybrid model was built (thesis 5.1.1): typed records and the pairing table.
+
+:func:`sdctrl.hybrid` pairs the measured modes with FE modes (MAC), expands the measured
+shapes onto the FE DOFs (4.7), absorbs the out-of-band poles that pair with no FE mode and
+chooses its residual terms against the identified model.  What it found is read from
+``HybridModel.construction`` (:class:`HybridConstruction`, with :class:`ModePairing` and
+:class:`ResidualChoice`); :func:`pairing_report` tabulates the pairing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sdctrl._lib.records import freeze_arrays
+
+__all__ = ["KINDS", "HybridConstruction", "ModePairing", "ResidualChoice", "pairing_report"]
+
+#: origins of the modes of a hybrid model (``HybridModel.kind``)
+KINDS = ("measured", "fe", "residual", "static")
+
+
+@dataclass(frozen=True, eq=False)
+class ModePairing:
+    """FE/test mode pairing of the kept measured modes, one row each (5.1.1).
+
+    Attributes
+    ----------
+    test_mode : ndarray of int
+        Index of the measured mode in the identified model.
+    fe_mode : ndarray of int
+        Index of its paired FE mode.
+    mac : ndarray
+        MAC of the pair, at the test sensors.
+    test_hz, fe_hz : ndarray
+        Measured and FE frequencies (Hz).
+    poor : ndarray of int
+        Rows whose MAC is below ``mac_min`` (reported with a warning).
+    """
+
+    test_mode: np.ndarray | None = None
+    fe_mode: np.ndarray | None = None
+    mac: np.ndarray | None = None
+    test_hz: np.ndarray | None = None
+    fe_hz: np.ndarray | None = None
+    poor: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
+
+
+@dataclass(frozen=True, eq=False)
+class ResidualChoice:
+    """The residual terms a hybrid kept (:func:`~sdctrl.hybrids._hybrid_basis.select_residual`).
+
+    Attributes
+    ----------
+    variant : str
+        The kept variant (``"kappa, mass+E"``, ``"kappa, E"``, ``"fe"``...).
+    scores : dict of str to float
+        logLS distance to the identified model at the tested I/O of every variant tried
+        (empty when only one was possible).
+    kappa : float
+        Factor applied to the appended FE frequencies: the median measured/FE frequency
+        ratio of the paired modes, or 1.
+    """
+
+    variant: str | None = None
+    scores: dict | None = None
+    kappa: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class HybridConstruction:
+    """What :func:`sdctrl.hybrid` found while building the model (5.1.1, 4.7).
+
+    Read as ``HybridModel.construction``; None for a hybrid made from an FE-derived model.
+
+    Attributes
+    ----------
+    pairing : ModePairing
+        FE/test pairing of the kept measured modes.
+    mac : ndarray, shape (n_fe, n_test)
+        MAC of every FE mode against every identified mode at the test sensors.
+    absorbed : ndarray of int
+        Identified modes (out of band, poorly paired) absorbed into the residual terms.
+    expansion : ndarray
+        Expansion coefficients ``A`` of the measured shapes on the expansion basis (4.7).
+    mean_damping : float
+        Damping ratio given to the appended FE modes (mean measured in-band one).
+    fe_frequency_hz : ndarray
+        Frequencies (Hz) of the FE modes considered.
+    residual : ResidualChoice
+        The residual variant kept and its scores.
+    residual_flexibility : ndarray, shape (ns, na), or None
+        The kept residual flexibility ``E`` at the test I/O (carried by the static
+        correction modes, 2.22), None when none was kept.
+    mass_correction : ndarray or None
+        Eigenvalues of the low modes' inverse-mass correction (``"mass+E"`` variant).
+    """
+
+    pairing: ModePairing | None = None
+    mac: np.ndarray | None = None
+    absorbed: np.ndarray | None = None
+    expansion: np.ndarray | None = None
+    mean_damping: float | None = None
+    fe_frequency_hz: np.ndarray | None = None
+    residual: ResidualChoice | None = None
+    residual_flexibility: np.ndarray | None = None
+    mass_correction: np.ndarray | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
+
+
+def pairing_report(model) -> str:
+    """Markdown table of the FE/test mode pairing of a hybrid model.
+
+    Parameters
+    ----------
+    model : HybridModel
+        A model returned by :func:`sdctrl.hybrid`.
+
+    Returns
+    -------
+    str
+        One row per measured mode: test and FE frequencies (Hz), their ratio and the MAC,
+        poor pairs flagged.
+    """
+    built = getattr(model, "construction", None)
+    p = None if built is None else built.pairing
+    if p is None or p.test_mode is None:
+        raise ValueError("model has no pairing information (not built by hybrid)")
+    poor = set(np.asarray(() if p.poor is None else p.poor).tolist())
+    rows = ["| test mode | test Hz | FE mode | FE Hz | FE/test | MAC |",
+            "|---:|---:|---:|---:|---:|---:|"]
+    for j in range(p.test_mode.size):
+        flag = " (poor)" if j in poor else ""
+        rows.append(f"| {j} | {p.test_hz[j]:.3f} | {p.fe_mode[j]} | {p.fe_hz[j]:.3f} "
+                    f"| {p.fe_hz[j] / p.test_hz[j]:.4f} | {p.mac[j]:.3f}{flag} |")
+    return "\n".join(rows)

@@ -1,0 +1,88 @@
+"""What :func:`sdctrl.identify` reports besides the model (thesis 3.1-3.2): typed records.
+
+:class:`Stabilisation` holds the LSCF poles of every model order (the stabilisation diagram,
+``ComplexModeModel.stabilisation``); :class:`SearchDiagnostics` how the pole search went
+(``ComplexModeModel.search``: evaluations, convergence, data compression, interruption).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sdctrl._lib.records import freeze_arrays
+
+__all__ = ["SearchDiagnostics", "Stabilisation"]
+
+
+@dataclass(frozen=True, eq=False)
+class Stabilisation:
+    """LSCF poles of every model order, the input of :func:`sdctrl.plot.stabilisation`.
+
+    Attributes
+    ----------
+    orders : ndarray of int, shape (k,)
+        Model orders computed.
+    poles : tuple of ndarray
+        For each order, every root of its denominator (complex, rad/s).
+    """
+
+    orders: np.ndarray | None = None
+    poles: tuple = ()
+
+    def __post_init__(self):
+        freeze_arrays(self)
+
+
+@dataclass(frozen=True, eq=False)
+class SearchDiagnostics:
+    """How the pole search of :func:`sdctrl.identify` went (3.18)-(3.19).
+
+    Every field may be None in files written before it existed.
+
+    Attributes
+    ----------
+    optimizer : str
+        ``"varpro"``, ``"gradient"`` or ``"none"``.
+    model : str
+        Residue parametrisation (``"complex"``, ...).
+    asymptotic : bool
+        Whether ``E`` and ``F`` were fitted.
+    compress_rank : int
+        Rank of the compressed data the search ran on.
+    compression_residual : float or None
+        Relative part of the data the compression leaves out (None: not compressed).
+    lines, channels : int
+        Frequency lines of the band and data channels.
+    nfev : int
+        Cost evaluations of the whole identification.
+    converged : bool
+        Whether the last pole search converged.
+    status : int or None
+        Optimiser status of the last search.
+    message : str or None
+        Optimiser message of the last search.
+    interrupted : bool
+        True when the automatic selection was interrupted (Ctrl-C) and the last complete
+        fit returned.
+    rcond : float
+        Reciprocal condition number of the final pole basis (3.16).
+    """
+
+    optimizer: str | None = None
+    model: str | None = None
+    asymptotic: bool | None = None
+    compress_rank: int | None = None
+    compression_residual: float | None = None
+    lines: int | None = None
+    channels: int | None = None
+    nfev: int | None = None
+    converged: bool | None = None
+    status: int | None = None
+    message: str | None = None
+    interrupted: bool = False
+    rcond: float | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
