@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sdctrl.modal._operations import modified, with_feedback
+from sdctrl._lib.statespace import modal_states, second_order
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
@@ -327,8 +328,7 @@ def poles(model: NormalModeModel) -> np.ndarray:
     >>> np.round(poles(nm), 4)
     array([-0.2+1.99j])
     """
-    n = model.n
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
+    A = second_order(model.Omega, model.Gamma, model.phib, model.cphi)[0]
     lam = np.linalg.eigvals(A)
     scale = max(np.abs(lam).max(), 1.0)
     lam = lam[lam.imag >= -1e-12 * scale]
@@ -447,19 +447,8 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
 def _realisation(model: NormalModeModel, k: int, omega_c: float | None):
     """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``k``."""
     n, ns, na = model.n, model.ns, model.na
-    Z, I_ = np.zeros((n, n)), np.eye(n)
-    A = np.block([[Z, I_], [-model.Omega, -model.Gamma]])
-    B = np.vstack([np.zeros((n, na)), model.phib])
-    if k == 0:
-        C = np.hstack([model.cphi, np.zeros((ns, n))])
-        D = np.zeros((ns, na))
-    elif k == 1:
-        C = np.hstack([np.zeros((ns, n)), model.cphi])
-        D = np.zeros((ns, na))
-    else:
-        C = np.hstack([-model.cphi @ model.Omega, -model.cphi @ model.Gamma])
-        D = model.cphi @ model.phib
-    states = [f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)]
+    A, B, C, D = second_order(model.Omega, model.Gamma, model.phib, model.cphi, k)
+    states = modal_states(n)
     if model.E is not None:
         if k == 0:
             D = D + model.E
