@@ -5,12 +5,13 @@ expansion of the measured shapes onto every FE DOF (4.7, ``_expansion``), a hybr
 (:func:`hybrid`, ``_build``) that keeps the measured frequencies and damping; its residual
 terms and static correction modes come from ``_hybrid_basis``.  The :class:`HybridModel`
 predicts the effect of modifications on FE DOFs (``with_feedback``: D-struts 5.3-5.4,
-``with_io``: untested shakers and sensors, ``modified``), ``_predictions``.
+``with_io``: untested shakers and sensors, ``with_modification``: ``dM, dC, dK`` by
+reanalysis 5.2), ``_predictions``; :func:`pairing_report` tabulates its FE/test mode pairing.
 
 The package is named ``hybrids`` so that ``sd.hybrid`` stays a plain function.
 """
 
 from sdctrl.hybrids._build import hybrid
-from sdctrl.hybrids._predictions import HybridModel
+from sdctrl.hybrids._predictions import HybridModel, pairing_report
 
-__all__ = ["HybridModel", "hybrid"]
+__all__ = ["HybridModel", "hybrid", "pairing_report"]

@@ -199,7 +199,8 @@ class NormalModeModel:
     def modified(self, dmu=None, dGamma=None, dOmega=None) -> NormalModeModel:
         """Model after reduced-coordinate mass, damping and stiffness changes (4.17).
 
-        See :func:`sdctrl.modal._normal_model.modified`.
+        See :func:`sdctrl.modal._operations.modified`.  Changes given on physical DOFs
+        (``dM, dC, dK``) are :meth:`sdctrl.HybridModel.with_modification` (5.2).
 
         Parameters
         ----------
@@ -289,7 +290,9 @@ class NormalModeModel:
         return frf(self, freq, quantity)
 
     def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
-        """python-control StateSpace with named signals; see :func:`sdctrl.modal._normal_model.to_statespace`.
+        """python-control StateSpace with named signals, states ``[p; p']`` (2.15)-(2.24).
+
+        See :func:`sdctrl.modal._normal_model.to_statespace`.
 
         Parameters
         ----------
@@ -302,6 +305,12 @@ class NormalModeModel:
         Returns
         -------
         control.StateSpace
+            Outputs named after the sensors, inputs after the actuators followed by ``_u``.
+
+        Notes
+        -----
+        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
+        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
         """
         return to_statespace(self, quantity, omega_c)
 
