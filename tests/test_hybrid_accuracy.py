@@ -242,8 +242,9 @@ def test_normal_modes_leaves_out_of_band_poles_out_only_when_it_must(bed):
 
 
 def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):
-    """The two doors to a D-strut on a hybrid (``with_feedback`` and ``strut_plant`` closed
-    by ``feedback``) carry the same static correction and give the same closed loop."""
+    """``with_feedback``, the one route to a D-strut on a hybrid, against the same loop built
+    the long way (a strut channel closed by ``sd.feedback``, tests/struts.py): the same
+    static correction and the same closed loop."""
     from struts import strut_controller, strut_plant
 
     from sdctrl._lib.validate import signal_name
