@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl._lib.statespace import modal_states, second_order, ss_frf
+from sdctrl._lib.statespace import correction_filter, modal_states, second_order, ss_frf
 
 QUANTITIES = ("displacement", "velocity", "acceleration")
 
@@ -39,6 +39,21 @@ def test_kernel_matches_the_closed_form(k):
     ref = _closed_form(m.Omega, m.Gamma, m.phib, m.cphi, w, k)
     assert np.abs(H - ref).max() < 1e-12 * np.abs(ref).max()
     assert modal_states(2) == ["p0", "p1", "dp0", "dp1"]
+
+
+def test_correction_filter_matches_its_transfer_function():
+    """One kernel (2.20) for normal- and complex-mode models: ``(P1 s + P2 s^2) wc^2/(s+wc)^2``,
+    which tends to ``P1 s + P2 s^2`` well below ``wc`` (relative error ~ 2 w / wc)."""
+    rng = np.random.default_rng(4)
+    P1, P2, wc = rng.standard_normal((3, 2)), rng.standard_normal((3, 2)), 2e3
+    w = np.linspace(1.0, 5e3, 400)
+    H = ss_frf(*correction_filter(P1, P2, wc), w)
+    s = 1j * w[:, None, None]
+    ref = (P1 * s + P2 * s**2) * wc**2 / (s + wc) ** 2
+    assert np.abs(H - ref).max() < 1e-12 * np.abs(ref).max()
+    low = w < 10.0
+    exact = P2 * s[low] ** 2 + P1 * s[low]
+    assert np.abs(H[low] - exact).max() < 4 * 10.0 / wc * np.abs(exact).max()
 
 
 def test_kernel_refuses_a_fourth_derivative():

@@ -1,17 +1,19 @@
-"""State-space kernels shared by the data, modal, uncertainty and robustness modules (internal).
+"""State-space kernels shared by the data, modal, uncertainty and robust modules (internal).
 
 :func:`second_order` realises the modal equations (2.15) ``p'' + Gamma p' + Omega p = phib u``,
 ``y = cphi p^(k)`` (states ``[p; p']``), the one realisation of normal-mode models, of uncertain
-models and of their perturbations.  :func:`ss_frf` evaluates ``C (j w I - A)^-1 B + D`` on a frequency grid, vectorised; it sits
-before every module of the flow (``frf``, ``uncertainty``, ``robust``...) so that none of
-them imports it from another's namespace.
+models and of their perturbations; :func:`correction_filter` realises the improper terms of
+velocity/acceleration outputs through critically damped correction modes (2.20), for normal-
+and complex-mode models alike.  :func:`ss_frf` evaluates ``C (j w I - A)^-1 B + D`` on a
+frequency grid, vectorised.  Both sit before every module of the flow (``data``, ``modal``,
+``robust``...) so that none of them imports them from another's namespace.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["modal_states", "second_order", "ss_frf"]
+__all__ = ["correction_filter", "modal_states", "second_order", "ss_frf"]
 
 
 def second_order(Omega, Gamma, phib, cphi, k: int = 0):
@@ -61,6 +63,42 @@ def second_order(Omega, Gamma, phib, cphi, k: int = 0):
     else:
         raise ValueError(f"k must be 0, 1 or 2 (output derivative), got {k!r}")
     return A, B, C, D
+
+
+def correction_filter(P1, P2, wc: float):
+    """``(P1 s + P2 s^2) w_c^2 / (s + w_c)^2``: a critically damped mode per input (2.20).
+
+    ``z'' + 2 w_c z' + w_c^2 z = w_c^2 u`` (states ``[z; z']``, one pair per input) and
+    ``y = P1 z' + P2 z''``: the terms ``P1 s`` and ``P2 s^2``, which no proper system holds,
+    reproduced in the band to a relative error of about ``2 w / w_c``.
+
+    Parameters
+    ----------
+    P1, P2 : ndarray, shape (ns, na)
+        Coefficients of ``s`` and ``s^2``.
+    wc : float
+        Cut-off (rad/s).
+
+    Returns
+    -------
+    A : ndarray, shape (2na, 2na)
+    B : ndarray, shape (2na, na)
+    C : ndarray, shape (ns, 2na)
+    D : ndarray, shape (ns, na)
+
+    Examples
+    --------
+    >>> A, B, C, D = correction_filter([[0.0]], [[1.0]], 10.0)
+    >>> A.tolist(), B.tolist(), C.tolist(), D.tolist()
+    ([[0.0, 1.0], [-100.0, -20.0]], [[0.0], [100.0]], [[-100.0, -20.0]], [[100.0]])
+    """
+    P1, P2 = np.asarray(P1, float), np.asarray(P2, float)
+    na = P1.shape[1]
+    Ii, Zi = np.eye(na), np.zeros((na, na))
+    A = np.block([[Zi, Ii], [-wc**2 * Ii, -2 * wc * Ii]])
+    B = np.vstack([Zi, wc**2 * Ii])
+    C = np.hstack([-wc**2 * P2, P1 - 2 * wc * P2])
+    return A, B, C, wc**2 * P2
 
 
 def modal_states(n: int) -> list[str]:

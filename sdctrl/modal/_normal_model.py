@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sdctrl.modal._operations import modified, with_feedback
-from sdctrl._lib.statespace import modal_states, second_order
+from sdctrl._lib.statespace import correction_filter, modal_states, second_order
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
@@ -463,17 +463,10 @@ def _realisation(model: NormalModeModel, k: int, omega_c: float | None):
             D = D + model.E
         else:
             wc = np.float64(omega_c if omega_c is not None else default_omega_c(model))
-            # one critically damped correction state pair per actuator:
-            # z'' + 2 wc z' + wc^2 z = wc^2 u  ->  z = wc^2/(s+wc)^2 u
-            Zc, Ic = np.zeros((na, na)), np.eye(na)
-            Ac = np.block([[Zc, Ic], [-wc**2 * Ic, -2 * wc * Ic]])
-            Bc = np.vstack([Zc, wc**2 * Ic])
-            if k == 1:
-                Cc = np.hstack([np.zeros((ns, na)), model.E])
-                Dc = np.zeros((ns, na))
-            else:
-                Cc = np.hstack([-wc**2 * model.E, -2 * wc * model.E])
-                Dc = wc**2 * model.E
+            # E s^k through one critically damped correction state pair per actuator (2.20)
+            Z0 = np.zeros((ns, na))
+            Ac, Bc, Cc, Dc = correction_filter(model.E if k == 1 else Z0,
+                                               model.E if k == 2 else Z0, wc)
             A = np.block([[A, np.zeros((2 * n, 2 * na))], [np.zeros((2 * na, 2 * n)), Ac]])
             B = np.vstack([B, Bc])
             C = np.hstack([C, Cc])
