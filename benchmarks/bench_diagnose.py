@@ -25,8 +25,9 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [os.path.join(HERE, ".."), os.path.join(HERE, "..", "tests")]
 
+from threadpoolctl import threadpool_limits
+
 import sdctrl as sd
-from sdctrl._lib.threads import single_thread
 
 
 def main() -> None:
@@ -41,7 +42,7 @@ def main() -> None:
     clean = T.clean_data(case)
     noisy = T.noisy(clean, 0.01)
     n_cand = None
-    with single_thread():
+    with threadpool_limits(1):
         sd.diagnose(model, T.noisy(clean, 0.01, seed=9).band(8, 20), fe, max_effects=1,
                     progress=False)                        # imports, caches
         t0 = time.perf_counter()

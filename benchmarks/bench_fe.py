@@ -97,7 +97,7 @@ def main(levels: int = 261, n_modes: int = 20, runs: int = 3) -> None:
           f"(max freq. difference {np.abs(fsp / fs - 1).max():.1e})")
 
     import sdctrl as sd
-    from sdctrl.testbeds import _truss as tb
+    from sdctrl import testbeds as tb
 
     t7 = time.perf_counter()
     fe_tb = sd.testbed()

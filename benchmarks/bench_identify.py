@@ -52,7 +52,6 @@ sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 import sdctrl as sd
-from sdctrl.identification._complex_modes import frf_array
 
 warnings.simplefilter("ignore")
 
@@ -106,7 +105,7 @@ def ema_case():
     b = rng.standard_normal((10, 1)) + 0.1j * rng.standard_normal((10, 1))
     R = np.einsum("ji,jk->jik", c, b) / (2j * lam.imag)[:, None, None]
     freq = 0.25 * np.arange(1, 2001)                     # 0.25 .. 500 Hz
-    H = frf_array(lam, R, np.zeros((28, 1)), np.zeros((28, 1)), 2j * np.pi * freq)
+    H = sd.ComplexModeModel(lam, R).frf(freq).H
     return Case("EMA case 28x1x2000, noise-free", freq, H, None, lam)
 
 
@@ -120,10 +119,15 @@ def ten_mode_case(n_act, noise=0.01):
 
 
 def testbed_case(n=1500):
-    from sdctrl.testbeds import _truss as tb
+    from sdctrl import testbeds as tb
 
     frf = sd.testbed_frf(n=n, noise=0.01, seed=0)
-    lam = np.asarray(tb._modal().poles)
+    # the model testbed_frf simulates: modes up to 5x the band top and static correction
+    fe = sd.testbed()
+    f_fe, _ = fe.modes(60)
+    n_modes = max(int(np.searchsorted(f_fe, 5 * tb.TESTBED_BAND[1])), 16)
+    lam = np.asarray(fe.normal_mode_model(list(tb.SHAKERS), list(tb.SENSORS), n_modes,
+                                          static=True, static_damping="projected").poles)
     lam = lam[lam.imag > 0]
     f = np.abs(lam) / (2 * np.pi)
     lam = lam[(f > tb.TESTBED_BAND[0]) & (f < tb.TESTBED_BAND[1])]
@@ -142,7 +146,7 @@ def scale_case(ns=1000, nf=4000, n_modes=20, seed=0, noise=0.005):
     b = rng.standard_normal((n_modes, 3)) + 0.1j * rng.standard_normal((n_modes, 3))
     R = np.einsum("ji,jk->jik", c, b) / (2j * lam.imag)[:, None, None]
     freq = np.linspace(10, 110, nf)
-    H = frf_array(lam, R, np.zeros((ns, 3)), np.zeros((ns, 3)), 2j * np.pi * freq)
+    H = sd.ComplexModeModel(lam, R).frf(freq).H
     H *= 1 + noise * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
     return Case(f"scale {ns}x3x{nf}, 20 modes, 0.5% noise", freq, H, None, lam,
                 ema_order=60)

@@ -8,11 +8,12 @@ The workflow of thesis chapter V.1 for a control engineer:
 2. the analyst's FE model is not exact (here: plate masses 10% heavy, a softened bay);
 3. ``sd.hybrid`` keeps the measured frequencies and damping, expands the measured shapes
    onto the FE DOFs (4.7) and appends FE modes outside the band (5.1);
-4. ``placement_study`` closes a D-strut ``F = -kv y'`` on every truss bar (5.3-5.4) and
+4. ``sd.placement_study`` closes a D-strut ``F = -kv y'`` on every truss bar (5.3-5.4) and
    ranks the bars by the band-limited RMS reduction of the plate sensors;
-5. the best strut is closed with python-control (``interconnect``, names kept) and the RMS
-   before/after is printed, checked against the exact FE solution of the lab structure,
-   and locked in an RMS snapshot (``sdctrl.testing``).
+5. the best strut is closed on the hybrid model (``with_feedback``, the one route to a
+   D-strut), its StateSpace keeps the sensor names, and the RMS before/after is printed,
+   checked against the exact FE solution of the lab structure, and locked in an RMS
+   snapshot (``sdctrl.testing``).
 
 Usage: ``python damper_placement.py [outdir]`` (a Bode plot and the snapshot JSON are
 written to ``outdir`` when given).  Runs headless in a few seconds.
@@ -25,9 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 import sdctrl as sd
-from sdctrl.closedloop._loops import feedback, rms, strut_controller, strut_plant
-from sdctrl.closedloop._placement import placement_study
-from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND
+from sdctrl.testbeds import SENSORS, SHAKERS, TESTBED_BAND
 from sdctrl.testing import record_rms
 
 BAND = TESTBED_BAND                      # 8-60 Hz
@@ -68,26 +67,26 @@ print(f"hybrid model: {h.n} modes ({int(h.measured.sum())} measured, "
 
 # 4. placement study over the truss bars
 truss = [e for e in fe.elements if max(int(e[0][1:]), int(e[1][1:])) <= 28]
-study = placement_study(h, fe, BAND, kv=KV, candidates=truss, outputs=OUTPUTS, psd=PSD,
+study = sd.placement_study(h, fe, BAND, kv=KV, candidates=truss, outputs=OUTPUTS, psd=PSD,
                         progress=not quiet)
 print(f"\nD-strut kv = {KV:g} N s/m on each of {len(truss)} truss bars, "
       f"RMS of {len(OUTPUTS)} plate sensors in {BAND[0]:g}-{BAND[1]:g} Hz:")
 print(study.table(5))
 bar = study.best.bar
 
-# 5. close the best strut with python-control and compare RMS before/after
+# 5. close the best strut on the hybrid model and compare RMS before/after
 s = fe.strut(*bar)
-plant = strut_plant(h, s)                                  # + strut force in, y and y' out
-closed = feedback(plant, strut_controller(kv=KV))          # interconnect: names kept
-out_idx = [plant.output_labels.index(sd.closedloop.signal_name(o)) for o in OUTPUTS]
-in_idx = list(range(len(SHAKERS)))
-before = rms(plant[out_idx, in_idx], BAND, PSD)
-after = rms(closed[out_idx, in_idx], BAND, PSD)
+closed_model = h.with_feedback(s, s.T, kv=KV)             # + the strut's static correction
+plant, closed = h.to_statespace(), closed_model.to_statespace()
+out_idx = [list(h.sensors).index(o) for o in OUTPUTS]    # rms: one value per sensor
+assert closed.output_labels == plant.output_labels        # the loop keeps every name
+before = sd.rms(plant, BAND, PSD)[out_idx]
+after = sd.rms(closed, BAND, PSD)[out_idx]
 # exact FE solution of the lab structure (all its modes) with the dashpot added to C
 s_lab = lab.strut(*bar)
 lab_strut = sd.FEModel(lab.M, lab.K, lab.C + KV * s_lab @ s_lab.T, dofs=lab.dofs)
-exact_before = rms(lab.normal_mode_model(list(SHAKERS), OUTPUTS, lab.N), BAND, PSD)
-exact_after = rms(lab_strut.normal_mode_model(list(SHAKERS), OUTPUTS, lab.N), BAND, PSD)
+exact_before = sd.rms(lab.normal_mode_model(list(SHAKERS), OUTPUTS, lab.N), BAND, PSD)
+exact_after = sd.rms(lab_strut.normal_mode_model(list(SHAKERS), OUTPUTS, lab.N), BAND, PSD)
 print(f"\nbest bar {bar[0]}-{bar[1]}: plate-sensor RMS (um), hybrid prediction vs lab FE")
 print(f"{'sensor':>8} {'before':>9} {'after':>9} {'lab before':>11} {'lab after':>10}")
 for o, b0, a0, b1, a1 in zip(OUTPUTS, before, after, exact_before, exact_after):
@@ -98,14 +97,14 @@ print(f"overall RMS reduction: {100 * gain:.1f} % predicted, {100 * gain_lab:.1f
       "structure")
 # the hybrid (like any truncated modal model) misses the residual flexibility of the modes
 # above its range at the strut, so it slightly overestimates the strut's effect (5.1.2)
-f_cl, z_cl = sd.closedloop.modal_damping(h.with_feedback(s, s.T, kv=KV), BAND)
+f_cl, z_cl = sd.closedloop.modal_damping(closed_model, BAND)
 print("closed-loop damping in band (%):", np.round(100 * z_cl, 2))
 assert gain > 0 and abs(gain - gain_lab) < 0.05
 
 if len(sys.argv) > 1:
     out = pathlib.Path(sys.argv[1])
     out.mkdir(parents=True, exist_ok=True)
-    snap = record_rms(closed[out_idx, in_idx], BAND, PSD, out / "dstrut_rms.json",
+    snap = record_rms(closed[out_idx, :], BAND, PSD, out / "dstrut_rms.json",
                       name=f"D-strut {bar[0]}-{bar[1]}", note="examples/damper_placement.py")
     import matplotlib
 

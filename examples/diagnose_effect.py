@@ -21,7 +21,7 @@ import sys
 import numpy as np
 
 import sdctrl as sd
-from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND
+from sdctrl.testbeds import SENSORS, SHAKERS, TESTBED_BAND
 
 out = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else None
 BAR = ("N14", "N18")                                   # the longeron whose joint worked loose

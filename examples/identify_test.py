@@ -22,7 +22,7 @@ import tempfile
 import numpy as np
 
 import sdctrl as sd
-from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND
+from sdctrl.testbeds import SENSORS, SHAKERS, TESTBED_BAND
 
 quiet = bool(os.environ.get("SDCTRL_QUIET"))
 out = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else None

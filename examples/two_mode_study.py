@@ -10,9 +10,7 @@ import sys
 import numpy as np
 from scipy.optimize import least_squares
 
-from sdctrl.data._frf import ss_frf
-from sdctrl.modal._normal_model import NormalModeModel
-from sdctrl.robust._uncertainty import psd_gamma_bound, uncertain
+import sdctrl as sd
 
 C = np.array([[1.0, 1.0], [2.0, -1.0], [-2.0, 0.0]])
 B = np.array([[1.0], [1.0]])
@@ -21,7 +19,7 @@ GA0 = np.diag([0.04, 0.022])
 
 
 def model(Omega, Gamma):
-    return NormalModeModel(Omega=Omega, Gamma=Gamma, cphi=C, phib=B,
+    return sd.NormalModeModel(Omega=Omega, Gamma=Gamma, cphi=C, phib=B,
                            sensors=["y1", "y2", "y3"], actuators=["u"])
 
 
@@ -64,11 +62,10 @@ def zeros_siso(Omega, Gamma, out):
 
 
 def main(outdir=None):
-    g_pd = psd_gamma_bound(GA0)[0, 1]
+    g_pd = sd.robust.psd_gamma_bound(GA0)[0, 1]
     print(f"(5.7) Gamma_12 range for Gamma >= 0: [-{g_pd:.4f}, {g_pd:.4f}] "
           f"(sqrt(0.04*0.022); the thesis text prints 0.3)")
     f = np.linspace(0.12, 0.22, 401)
-    w = 2 * np.pi * f
     p0 = poles(OM0, GA0)
     rms0 = h2_rms(OM0, GA0)
     curves = {}
@@ -77,7 +74,7 @@ def main(outdir=None):
     for g12 in (-0.999 * g_pd, 0.0, 0.999 * g_pd):
         Om, Ga = fixed_pole_model(g12)
         m = model(Om, Ga).to_statespace()
-        curves[g12] = ss_frf(m.A, m.B, m.C, m.D, w)[:, 0, 0]
+        curves[g12] = sd.FRF.from_system(m, f).H[:, 0, 0]
         z = zeros_siso(Om, Ga, 0)
         zz = z[np.argmax(z.imag)]
         fshift = 100 * (np.sqrt(np.linalg.eigvalsh(Om)) / np.sqrt([1.0, 1.21]) - 1)
@@ -108,7 +105,7 @@ def main(outdir=None):
         print(f"{c12:9.3f} {fp[0]:9.4f} {fp[1]:9.4f}   " + " | ".join(txt))
     print("(* = zero between the two poles: a change of * for a sensor is a pole/zero flip)")
 
-    um = uncertain(model(OM0, GA0), dGamma=psd_gamma_bound(GA0, 0.999))
+    um = model(OM0, GA0).uncertain(dGamma=sd.robust.psd_gamma_bound(GA0, 0.999))
     env = um.frf_envelope(f, n_samples=40, seed=0)
     k = np.argmin(np.abs(env["nominal"][:, 0, 0]) + 1e9 * ((f < 0.16) | (f > 0.175)))
     print(f"\nuncertain model, Gamma_12 within the PD bound ({um.blocks}): y1/u at the nominal zero "

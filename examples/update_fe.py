@@ -80,7 +80,7 @@ if out is not None:
     import matplotlib
 
     matplotlib.use("Agg")
-    from sdctrl.testbeds._truss import SENSORS, SHAKERS
+    from sdctrl.testbeds import SENSORS, SHAKERS
 
     wrong_model = fe.normal_mode_model(list(SHAKERS), list(SENSORS), 40, static=True)
     sd.plot.bode([frf, wrong_model, res.model], labels=["test", "FE before", "FE updated"],

@@ -26,8 +26,6 @@ OWNER = {
     "Parameter": 11,
     "UncertainModel.frf_envelope": 13,
     "UncertainModel.perturbed": 13,
-    "UncertainModel.perturbed_matrices": 13,
-    "UncertainModel.perturbed_model": 13,
     "UncertainModel.sample": 13,
     "UncertainModel.sample_deltas": 13,
     "hybrid": 17,

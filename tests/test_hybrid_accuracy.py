@@ -242,15 +242,18 @@ def test_normal_modes_leaves_out_of_band_poles_out_only_when_it_must(bed):
 
 
 def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):
-    """The two doors to a D-strut on a hybrid (``with_feedback`` and ``strut_plant`` closed
-    by ``feedback``) carry the same static correction and give the same closed loop."""
-    from sdctrl.closedloop._loops import feedback, signal_name, strut_controller, strut_plant
+    """``with_feedback``, the one route to a D-strut on a hybrid, against the same loop built
+    the long way (a strut channel closed by ``sd.feedback``, tests/struts.py): the same
+    static correction and the same closed loop."""
+    from struts import strut_controller, strut_plant
+
+    from sdctrl._lib.validate import signal_name
 
     h, s = bed["h"], bed["s"]
     kp, kv = DSTRUT
     plant = strut_plant(h, s)
     assert plant.nstates == 2 * (h.n + 1)              # one static correction mode
-    closed = feedback(plant, strut_controller(kp=kp, kv=kv))
+    closed = sd.feedback(plant, strut_controller(kp=kp, kv=kv))
     outs = [closed.output_labels.index(signal_name(o)) for o in SE]
     r_pc = rms(closed[outs, list(range(len(SH)))], BAND)
     r_fb = rms(h.with_feedback(s, s.T, kp=kp, kv=kv).to_statespace("displacement"), BAND)
@@ -264,10 +267,10 @@ def test_modify_carries_the_same_static_correction_as_with_feedback(bed):
     h, s = bed["h"], bed["s"]
     kp, _ = BROKEN
     dK = kp * s @ s.T
-    a = h.modify(dK=dK).frf(FREQ, "acceleration").H
+    a = h.with_modification(dK=dK).frf(FREQ, "acceleration").H
     b = h.with_feedback(s, s.T, kp=kp).frf(FREQ, "acceleration").H
     assert np.abs(a - b).max() < 1e-6 * np.abs(b).max()
-    c = h.modify(dK=dK, static=False).frf(FREQ, "acceleration").H
+    c = h.with_modification(dK=dK, static=False).frf(FREQ, "acceleration").H
     d = h.with_feedback(s, s.T, kp=kp, static=False).frf(FREQ, "acceleration").H
     assert np.abs(c - d).max() < 1e-6 * np.abs(d).max()
     assert np.abs(a - c).max() > 0.1 * np.abs(b).max()

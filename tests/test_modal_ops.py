@@ -30,7 +30,7 @@ def _full_model(fe):
     return fe.normal_mode_model(b, c, fe.N), b, c
 
 
-def test_strut_feedback_equals_direct_fe_solution():
+def test_with_feedback_equals_direct_fe_solution():
     fe = _chain()
     nm, b, c = _full_model(fe)
     strut = fe.point(["N4.x"]) - fe.point(["N2.x"])           # relative axial pair
@@ -76,6 +76,17 @@ def test_modified_equals_fe_with_mass_and_stiffness_changes():
     assert np.allclose(mod.frequency, f_ref, rtol=1e-10)
     T = mod.transformation
     assert np.allclose(T.T @ (np.eye(fe.N) + phi.T @ dM @ phi) @ T, np.eye(fe.N), atol=1e-10)
+    # the same changes given on physical DOFs: HybridModel.with_modification (5.2), one name
+    # for physical dM, dC, dK, ``modified`` for modal ones; a truncated basis (4 of 6 modes)
+    h = sd.HybridModel(nm.Omega[:4, :4], nm.Gamma[:4, :4], nm.cphi[:, :4], nm.phib[:4],
+                       shapes=phi[:, :4], dofs=nm.dofs)
+    p4 = phi[:, :4]
+    by_dofs = h.with_modification(dM, dC, dK)
+    by_modes = h.modified(dmu=p4.T @ dM @ p4, dGamma=p4.T @ dC @ p4, dOmega=p4.T @ dK @ p4)
+    H = by_modes.frf(f).H
+    assert np.abs(by_dofs.frf(f).H - H).max() < 1e-12 * np.abs(H).max()
+    assert np.abs(H - direct.H).max() > 1e-4 * np.abs(direct.H).max()     # truncated: not exact
+    assert not hasattr(h, "modify")
 
 
 def test_modified_rejects_bad_changes():

@@ -120,3 +120,17 @@ def test_cheap_bound_is_a_certificate():
         fm = Factored(k, fa.L, fa.R)
         assert np.sqrt(evaluate(fm, st, st.start(di), False)[0]) == pytest.approx(c, rel=1e-9)
         assert dg_upper(fm, st)[0] <= c * (1 + 1e-12)
+
+
+def test_dg_upper_takes_a_plain_matrix():
+    """The public ``sdctrl.robust.mu.dg_upper`` needs no private type: a full complex block
+    has mu = sigma_max (the bound is exact), and the factored form gives the same bound."""
+    from sdctrl.robust.mu import BlockStructure, dg_upper
+    from sdctrl.robust.mu._structure import Factored
+
+    rng = np.random.default_rng(5)
+    M = rng.standard_normal((4, 4)) + 1j * rng.standard_normal((4, 4))
+    full = dg_upper(M, BlockStructure((4,), ("full",)))[0]
+    assert full == pytest.approx(np.linalg.svd(M, compute_uv=False)[0], rel=1e-6)
+    mixed = BlockStructure((1, 1, 2), ("real", "complex", "full"))
+    assert dg_upper(M, mixed)[0] == dg_upper(Factored(M), mixed)[0]

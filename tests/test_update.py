@@ -144,9 +144,9 @@ def test_deterministic_and_inputs_untouched(wrong, clean, params):
 
 
 def test_identified_normal_mode_model_gives_its_full_damping(wrong, clean, params):
-    from sdctrl.updating._placed_test import identify_test, place_test
+    from sdctrl.updating._placed_test import identify_measured, place_test
 
-    cm = identify_test(place_test(wrong, clean))
+    cm = identify_measured(place_test(wrong, clean))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # the identified Gamma is not quite PSD here
         nm = sd.normal_modes(cm, clean.collocated, modes=cm.in_band)

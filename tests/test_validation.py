@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.closedloop import _loops as closedloop
 
 
 def _nm(E=True):
@@ -144,21 +143,6 @@ def test_complex_mode_model_band_and_mask_validated():
     with pytest.raises(ValueError, match="in_band"):
         cm.replace(in_band=[np.nan, 1.0])
     assert cm.replace(in_band=[1, 0]).in_band.tolist() == [True, False]
-
-
-def test_strut_plant_name_collision_and_gains():
-    fe = sd.FEModel(np.eye(3), 100.0 * np.array([[2.0, -1, 0], [-1, 2, -1], [0, -1, 1]]),
-                    dofs=["A.x", "B.x", "C.x"],
-                    nodes={"A": (0, 0, 0), "B": (1, 0, 0), "C": (2, 0, 0)})
-    nm = fe.normal_mode_model(fe.point(["C.x"]), fe.point(["C.x"]).T, 2,
-                              sensors=["tip"], actuators=["shaker"])
-    s = fe.strut("A", "B")
-    with pytest.raises(ValueError, match="name 'tip' is already"):
-        closedloop.strut_plant(nm, s, name="tip")
-    with pytest.raises(TypeError, match="kv"):
-        closedloop.strut_controller(kp=1.0, kv="2")
-    G = closedloop.feedback(closedloop.strut_plant(nm, s), closedloop.strut_controller(kv=5.0))
-    assert np.all(np.linalg.eigvals(G.A).real < 0)
 
 
 def test_first_use_refusals_say_what_to_do(tmp_path):

@@ -3,9 +3,9 @@
 - :func:`feedback` closes a user controller around a plant with
   ``control.interconnect`` so that every signal keeps its name (``control.feedback``
   drops them), python-control's sign convention ``u = w - K y``;
-- :func:`rate_outputs` and :func:`strut_plant` expose the relative displacement and
-  velocity of a strut, so that a D-strut (5.3) ``F = -kv y' - kp y`` is the static
-  controller :func:`strut_controller`;
+- a D-strut (5.3)-(5.4) ``F = -kv y' - kp y`` has one route, ``model.with_feedback``
+  (:meth:`sdctrl.NormalModeModel.with_feedback`); a dynamic controller on a strut channel
+  is closed with :func:`feedback` on ``model.with_io(...).to_statespace()``;
 - :func:`rms` is the RMS of each output for independent band-limited white-noise inputs,
   integrated exactly over the band (closed form, no frequency sampling);
 - :func:`modal_damping` lists the frequencies and damping ratios of the poles in a band.
@@ -15,8 +15,6 @@ Frequencies at the surface are in Hz, inside in rad/s.
 
 from __future__ import annotations
 
-from dataclasses import fields
-
 import numpy as np
 
 from sdctrl._lib.bandint import band_integral, band_integral_undamped
@@ -25,14 +23,10 @@ from sdctrl._lib.validate import (
     as_statespace,
     check_band,
     check_finite_result,
-    check_label,
     check_scalar,
-    signal_name,
-    signal_names,
 )
 
-__all__ = ["feedback", "modal_damping", "rate_outputs", "rms", "strut_controller",
-           "strut_plant"]
+__all__ = ["feedback", "modal_damping", "rms"]
 
 
 # ----------------------------------------------------------------------------------------
@@ -310,141 +304,3 @@ def feedback(plant, controller, sign: float = -1.0, *, control_outputs: bool = F
         outnames += [f"{lab}_ctrl" for lab in kout]
     return control.interconnect([Pn, Kn, Sum], inplist=wi, outlist=outlist, inputs=pin,
                                 outputs=outnames, name="closed_loop")
-
-
-def rate_outputs(sys, outputs=None):
-    """Append the time derivative of outputs, ``y' = C A x + C B u`` (named ``<y>_dot``).
-
-    Parameters
-    ----------
-    sys : control.StateSpace or model with ``to_statespace()``
-        The system; the differentiated outputs must have no feedthrough (``D`` row zero).
-    outputs : sequence of str, optional
-        Output names to differentiate; default all.
-
-    Returns
-    -------
-    control.StateSpace
-        Same states and inputs; outputs followed by their rates.
-
-    Raises
-    ------
-    ValueError
-        Unknown output name, or an output with a feedthrough (its rate is not proper).
-    """
-    import control
-
-    G = as_statespace(sys)
-    A, B, C, D = _mats(G)
-    names = list(G.output_labels)
-    if outputs is None:
-        sel = list(range(len(names)))
-    else:
-        outs = _names(outputs, "outputs")
-        sel = []
-        for o in outs:
-            if o not in names:
-                raise ValueError(f"outputs: unknown output {o!r}, expected one of {names}")
-            sel.append(names.index(o))
-    if np.any(D[sel] != 0):
-        raise ValueError("outputs: a differentiated output of sys has a feedthrough D, its "
-                         "rate is not proper")
-    Cs = C[sel]
-    rates = [f"{names[i]}_dot" for i in sel]
-    clash = sorted(set(rates) & (set(names) | set(G.input_labels)))
-    if clash:
-        raise ValueError(f"outputs: the rate name {clash[0]!r} is already a signal of sys")
-    return control.ss(A, B, np.vstack([C, Cs @ A]), np.vstack([D, Cs @ B]),
-                      inputs=list(G.input_labels), outputs=names + rates,
-                      states=list(G.state_labels))
-
-
-def strut_plant(model, b, name: str = "strut"):
-    """StateSpace of ``model`` with a strut channel added: input ``name_u`` (axial force
-    ``b``), outputs ``name`` (relative extension ``b^T q``) and ``name_dot`` (its rate).
-
-    Parameters
-    ----------
-    model : NormalModeModel
-        Model with ``shapes`` (hybrid or FE-derived).
-    b : array_like, shape (N,) or (N, 1)
-        Strut input shape on the DOFs of ``model.shapes`` (:meth:`FEModel.strut`).
-    name : str
-        Label of the strut channel (a sensor and an actuator label of the model).
-
-    Returns
-    -------
-    control.StateSpace
-        Inputs ``model`` 's inputs and ``name_u``, outputs its outputs and ``name``,
-        ``name_dot`` (displacement; ``.`` in ``name`` becomes ``_`` as in every signal name),
-        ready for :func:`feedback` with :func:`strut_controller`.  A hybrid model that
-        carries its FE model (``static_ready``, built by :func:`sdctrl.hybrid`) gets the
-        static correction of the strut first, as in its ``with_feedback``.
-    """
-    from sdctrl.modal._normal_model import NormalModeModel
-
-    if not isinstance(model, NormalModeModel):
-        raise TypeError(f"model must be a NormalModeModel, got {type(model).__name__}")
-    if model.shapes is None:
-        raise ValueError("model has no shapes: strut_plant needs a hybrid or FE-derived model")
-    N = model.shapes.shape[0]
-    bb = as_array(b, "b", ndim=(1, 2))
-    bb = bb.reshape(-1, 1) if bb.ndim == 1 else bb
-    if bb.shape != (N, 1):
-        raise ValueError(f"b must have shape (N={N}, 1), got {bb.shape}")
-    name = check_label(name, "name")
-    if getattr(model, "static_ready", False):
-        # a hybrid model carrying its FE: the strut's static correction, consistent with
-        # its shapes (HybridModel.with_static), as in HybridModel.with_feedback
-        model = model.with_static(bb)
-    taken = {signal_name(lab) for lab in (*model.sensors, *model.actuators)}
-    if signal_name(name) in taken:
-        raise ValueError(f"name {name!r} is already a sensor or actuator label of the model; "
-                         "choose another strut name")
-    changes = {"phib": np.hstack([model.phib, model.shapes.T @ bb]),
-               "cphi": np.vstack([model.cphi, bb.T @ model.shapes]),
-               "actuators": tuple(model.actuators) + (name,),
-               "sensors": tuple(model.sensors) + (name,)}
-    for f in fields(model):
-        if f.name in ("E", "F") and getattr(model, f.name) is not None:
-            X = getattr(model, f.name)
-            changes[f.name] = np.pad(X, ((0, 1), (0, 1)))
-    G = model.replace(**changes).to_statespace("displacement")
-    return rate_outputs(G, [signal_name(name)])
-
-
-def strut_controller(kp=0.0, kv=0.0, name: str = "strut"):
-    """Static D-strut controller ``F = kp y + kv y'`` (closed with negative feedback, 5.3).
-
-    Parameters
-    ----------
-    kp : float
-        Position gain (N/m).
-    kv : float
-        Velocity gain (N s/m).
-    name : str
-        Strut channel label used in :func:`strut_plant`.
-
-    Returns
-    -------
-    control.StateSpace
-        Inputs ``[name, name_dot]`` (the strut plant's outputs), output ``name_u`` (its
-        force input); :func:`feedback` applies ``F = -kp y - kv y'``.
-    """
-    import control
-
-    kp, kv = check_scalar(kp, "kp"), check_scalar(kv, "kv")
-    name = check_label(name, "name")
-    (force,), (extension,) = signal_names([name], [name])
-    return control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), [[kp, kv]],
-                      inputs=[extension, f"{extension}_dot"], outputs=[force], name="dstrut")
-
-
-def _names(x, name: str) -> list[str]:
-    """One signal name or a sequence of them."""
-    if isinstance(x, str):
-        return [x]
-    if not isinstance(x, list | tuple) or not all(isinstance(v, str) for v in x):
-        raise TypeError(f"{name} must be a signal name or a sequence of names, got "
-                        f"{type(x).__name__} {x!r:.60}")
-    return list(x)

@@ -17,6 +17,6 @@ corrected model -> error before/after").
 
 from sdctrl.diagnosis._apply import DelayedModel
 from sdctrl.diagnosis._loop import diagnose
-from sdctrl.diagnosis._result import KINDS, Diagnosis, Effect
+from sdctrl.diagnosis._result import EFFECT_KINDS, Diagnosis, Effect
 
-__all__ = ["KINDS", "DelayedModel", "Diagnosis", "Effect", "diagnose"]
+__all__ = ["EFFECT_KINDS", "DelayedModel", "Diagnosis", "Effect", "diagnose"]

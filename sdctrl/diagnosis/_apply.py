@@ -128,6 +128,11 @@ class DelayedModel:
         -------
         control.StateSpace
             Same signal names as the undelayed model's.
+
+        Notes
+        -----
+        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
+        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
         """
         import control
 

@@ -9,11 +9,11 @@ import numpy as np
 
 from sdctrl._lib.display import markdown_table
 
-__all__ = ["KINDS", "Diagnosis", "Effect"]
+__all__ = ["EFFECT_KINDS", "Diagnosis", "Effect"]
 
 #: the effect kinds (API.md, "Closing the loop with measured data")
-KINDS = ("missing_mode", "nonproportional_damping", "residual_flexibility", "residual_mass",
-         "added_damper", "mass_change", "stiffness_change", "delay")
+EFFECT_KINDS = ("missing_mode", "nonproportional_damping", "residual_flexibility",
+                "residual_mass", "added_damper", "mass_change", "stiffness_change", "delay")
 _UNITS = {"c": "N s/m", "dk": "N/m", "dm": "kg", "tau": "s", "frequency": "Hz", "mass": "kg",
           "stiffness": "N/m", "damping": "", "relative": "", "scale": ""}
 
@@ -88,7 +88,7 @@ class Effect:
     Parameters
     ----------
     kind : str
-        One of :data:`KINDS`.
+        One of :data:`EFFECT_KINDS`.
     location : str, tuple of str, float or None
         What it applies to, in the FE model's own labels: a node pair (``("N9", "N14")``,
         an element or not) for ``added_damper``/``stiffness_change``, a node name for
@@ -114,8 +114,8 @@ class Effect:
     error_after: float
 
     def __post_init__(self):
-        if self.kind not in KINDS:
-            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if self.kind not in EFFECT_KINDS:
+            raise ValueError(f"kind must be one of {EFFECT_KINDS}, got {self.kind!r}")
         if not isinstance(self.parameters, dict):
             raise TypeError("parameters must be a dict")
         sets = object.__setattr__

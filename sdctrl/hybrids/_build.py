@@ -101,8 +101,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     The model carries its FE model and test I/O (``fe``, ``sensor_c``, ``actuator_b``),
     so that :meth:`~sdctrl.hybrids._predictions.HybridModel.with_feedback`,
     :meth:`~sdctrl.hybrids._predictions.HybridModel.with_io` and
-    :meth:`~sdctrl.hybrids._predictions.HybridModel.modify` add the static correction of each
-    modification by default (the key to large stiffness changes, thesis Table 5.2).
+    :meth:`~sdctrl.hybrids._predictions.HybridModel.with_modification` add the static
+    correction of each modification by default (the key to large stiffness changes, thesis
+    Table 5.2).
     The outputs are ``y = c_c phi_c p`` with ``c_c = sensor_c`` (5.1).
 
     Parameters

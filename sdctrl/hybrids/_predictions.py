@@ -3,9 +3,10 @@
 A hybrid model (5.1, built by :func:`sdctrl.hybrid`) or an FE-derived normal-mode model
 carries its shapes ``phi_c`` on the DOFs of an FE model, so it predicts the response of
 inputs and outputs that were not part of the test (:func:`with_io`), of modifications
-``dM, dC, dK`` given on those DOFs by reanalysis (5.2, :func:`modify`) and of D-strut loops
-(5.3)-(5.4) (:func:`strut_feedback`).  :class:`HybridModel` is the normal-mode model with
-these doors; :func:`pairing_report` tabulates the FE/test mode pairing of its construction.
+``dM, dC, dK`` given on those DOFs by reanalysis (5.2, :func:`with_modification`) and of
+D-strut loops (5.3)-(5.4) (:meth:`HybridModel.with_feedback` with ``b = fe.strut(a, b)``).
+:class:`HybridModel` is the normal-mode model with these doors; :func:`pairing_report`
+tabulates the FE/test mode pairing of its construction.
 
 Static correction of the predictions (beyond the thesis).  A truncated modal basis cannot
 hold the local static response to a large change (a strut as soft as the bar it replaces,
@@ -17,8 +18,8 @@ correction made consistent with its own shapes
 (:func:`sdctrl.fe._static.consistent_static_modes`: the FE static response ``K^-1 b``
 made mass-orthogonal to the shapes, with its projected stiffness), critically damped
 (2.20): :func:`with_static`.  :meth:`HybridModel.with_feedback`, :func:`with_io` (new
-inputs) and :func:`modify` do it by default (``static=None``); ``static=False`` gives the
-plain projection of the thesis.
+inputs) and :func:`with_modification` do it by default (``static=None``); ``static=False``
+gives the plain projection of the thesis.
 """
 
 from __future__ import annotations
@@ -35,8 +36,7 @@ from sdctrl.hybrids._hybrid_records import KINDS, HybridConstruction, pairing_re
 from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.updating._reanalysis import modification_loads, reanalysis
 
-__all__ = ["HybridModel", "modify", "pairing_report", "strut_feedback", "with_io",
-           "with_static"]
+__all__ = ["HybridModel", "pairing_report", "with_io", "with_modification", "with_static"]
 
 
 @dataclass(frozen=True, eq=False, repr=False)      # the concise repr of NormalModeModel
@@ -45,7 +45,8 @@ class HybridModel(NormalModeModel):
 
     A :class:`~sdctrl.NormalModeModel` (same fields and methods) with the doors that need
     shapes on the DOFs of an FE model: :meth:`with_io` (untested inputs and outputs) and
-    :meth:`modify` (modifications given on FE DOFs, 5.2).  :meth:`replace` keeps the
+    :meth:`with_modification` (``dM, dC, dK`` on FE DOFs, 5.2; :meth:`modified` takes
+    changes in modal coordinates).  :meth:`replace` keeps the
     class, so :meth:`modified`, :meth:`with_feedback` and :meth:`proportional` return
     hybrid models too.
 
@@ -230,8 +231,11 @@ class HybridModel(NormalModeModel):
             model = with_static(self, bb.reshape(-1, 1) if bb.ndim == 1 else bb)
         return NormalModeModel.with_feedback(model, b, c, kp, kv, modal)
 
-    def modify(self, dM=None, dC=None, dK=None, *, static: bool | None = None) -> HybridModel:
-        """Prediction after ``dM, dC, dK`` given on the FE DOFs (5.2); see :func:`modify`.
+    def with_modification(self, dM=None, dC=None, dK=None, *,
+                          static: bool | None = None) -> HybridModel:
+        """Prediction after ``dM, dC, dK`` on the FE DOFs (5.2); see :func:`with_modification`.
+
+        The physical-DOF counterpart of :meth:`modified` (changes in modal coordinates).
 
         Parameters
         ----------
@@ -249,7 +253,7 @@ class HybridModel(NormalModeModel):
         -------
         HybridModel
         """
-        return modify(self, dM, dC, dK, static=static)
+        return with_modification(self, dM, dC, dK, static=static)
 
 
 def _check_nm(nm, name: str = "nm"):
@@ -413,7 +417,8 @@ def with_io(model, b=None, c=None, *, actuators=None, sensors=None,
     return model.replace(**changes)
 
 
-def modify(model, dM=None, dC=None, dK=None, *, static: bool | None = None) -> HybridModel:
+def with_modification(model, dM=None, dC=None, dK=None, *,
+                      static: bool | None = None) -> HybridModel:
     """Prediction of a modification given on physical DOFs by reanalysis, eq. (5.2).
 
     ``(I + dmu) p'' + (Gamma_c + dGamma) p' + (Omega_c + dOmega) p = phi_c^T b_c u`` with
@@ -450,8 +455,9 @@ def modify(model, dM=None, dC=None, dK=None, *, static: bool | None = None) -> H
     """
     _check_nm(model, "model")
     if model.shapes is None:
-        raise ValueError("model has no shapes on physical DOFs: modify needs a hybrid or "
-                         "FE-derived model (or use model.modified with modal changes)")
+        raise ValueError("model has no shapes on physical DOFs: with_modification needs a "
+                         "hybrid or FE-derived model (or use model.modified with modal "
+                         "changes)")
     model = _as_hybrid(model)
     if _static_default(model, static):
         loads = modification_loads(dM, dC, dK, model.shapes.shape[0])
@@ -460,36 +466,3 @@ def modify(model, dM=None, dC=None, dK=None, *, static: bool | None = None) -> H
     return reanalysis(model, dM, dC, dK)
 
 
-def strut_feedback(model, fe, node_a: str, node_b: str, kp=0.0, kv=0.0) -> HybridModel:
-    """Closed loop of a D-strut on the bar ``node_a``-``node_b``, eqs. (5.3)-(5.4).
-
-    The strut measures the relative axial extension ``y = c_s q`` and applies the relative
-    force ``F = -kv y' - kp y`` through ``b_s = c_s^T`` (:meth:`FEModel.strut`), i.e. adds
-    ``kv b_s b_s^T`` to the damping and ``kp b_s b_s^T`` to the stiffness.
-
-    Parameters
-    ----------
-    model : NormalModeModel
-        Hybrid or FE-derived model whose ``shapes`` are on ``fe.dofs``.
-    fe : FEModel
-        Gives the node coordinates and DOF numbering of the strut.
-    node_a, node_b : str
-        End nodes of the bar.
-    kp : float
-        Position gain (N/m): an added (negative: removed) axial stiffness.
-    kv : float
-        Velocity gain (N s/m): the strut's dashpot.
-
-    Returns
-    -------
-    HybridModel
-        Same inputs and outputs as ``model``; a model that carries its FE model gets the
-        static correction of the strut first (:meth:`HybridModel.with_feedback`).
-    """
-    _check_nm(model, "model")
-    check_fe_model(fe, "fe")
-    if model.shapes is None or model.shapes.shape[0] != fe.N:
-        raise ValueError("model must have shapes on the DOFs of fe (shape (N, n) with "
-                         f"N={fe.N})")
-    s = fe.strut(node_a, node_b)
-    return _as_hybrid(model).with_feedback(s, s.T, kp=kp, kv=kv)

@@ -349,6 +349,9 @@ class ComplexModeModel:
         strictly proper part stays exact, while ``E s^k`` and, for acceleration, the
         ``s sum_j (R_j + R_j^*)`` term (zero for proper modes, 3.39) are realised through
         ``w_c^2 / (s + w_c)^2`` (2.20), accurate to about ``2 w / w_c`` in the band.
+
+        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
+        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
         """
         return to_statespace(self, quantity, omega_c)
 

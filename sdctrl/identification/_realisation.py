@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.linalg import block_diag
 
+from sdctrl._lib.statespace import correction_filter
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
     check_finite_result,
@@ -128,12 +129,8 @@ def _correction_filter(cm: ComplexModeModel, P1, P2, omega_c):
         np.abs(cm.poles).max() if cm.n else 2 * np.pi * (cm.band or (1, 1))[1]))
     P1 = np.zeros((ns, na)) if P1 is None else P1
     P2 = np.zeros((ns, na)) if P2 is None else P2
-    Ii, Zi = np.eye(na), np.zeros((na, na))
-    Ac = np.block([[Zi, Ii], [-wc**2 * Ii, -2 * wc * Ii]])
-    Bc = np.vstack([Zi, wc**2 * Ii])
-    Cc = np.hstack([-wc**2 * P2, P1 - 2 * wc * P2])
-    Dc = wc**2 * P2
-    return Ac, Bc, Cc, Dc, [f"zc{a}" for a in range(na)] + [f"dzc{a}" for a in range(na)]
+    return (*correction_filter(P1, P2, wc),
+            [f"zc{a}" for a in range(na)] + [f"dzc{a}" for a in range(na)])
 
 
 def _realisation(cm: ComplexModeModel, kq: int, omega_c: float | None):

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sdctrl.modal._operations import modified, poles, with_feedback
+from sdctrl._lib.statespace import correction_filter, modal_states, second_order
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
@@ -218,7 +219,8 @@ class NormalModeModel:
     def modified(self, dmu=None, dGamma=None, dOmega=None) -> NormalModeModel:
         """Model after reduced-coordinate mass, damping and stiffness changes (4.17).
 
-        See :func:`sdctrl.modal._normal_model.modified`.
+        See :func:`sdctrl.modal._operations.modified`.  Changes given on physical DOFs
+        (``dM, dC, dK``) are :meth:`sdctrl.HybridModel.with_modification` (5.2).
 
         Parameters
         ----------
@@ -308,7 +310,9 @@ class NormalModeModel:
         return frf(self, freq, quantity)
 
     def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
-        """python-control StateSpace with named signals; see :func:`sdctrl.modal._normal_model.to_statespace`.
+        """python-control StateSpace with named signals, states ``[p; p']`` (2.15)-(2.24).
+
+        See :func:`sdctrl.modal._normal_model.to_statespace`.
 
         Parameters
         ----------
@@ -321,6 +325,12 @@ class NormalModeModel:
         Returns
         -------
         control.StateSpace
+            Outputs named after the sensors, inputs after the actuators followed by ``_u``.
+
+        Notes
+        -----
+        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
+        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
         """
         return to_statespace(self, quantity, omega_c)
 
@@ -437,35 +447,17 @@ def to_statespace(model: NormalModeModel, quantity: str = "displacement",
 def _realisation(model: NormalModeModel, k: int, omega_c: float | None):
     """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``k``."""
     n, ns, na = model.n, model.ns, model.na
-    Z, I_ = np.zeros((n, n)), np.eye(n)
-    A = np.block([[Z, I_], [-model.Omega, -model.Gamma]])
-    B = np.vstack([np.zeros((n, na)), model.phib])
-    if k == 0:
-        C = np.hstack([model.cphi, np.zeros((ns, n))])
-        D = np.zeros((ns, na))
-    elif k == 1:
-        C = np.hstack([np.zeros((ns, n)), model.cphi])
-        D = np.zeros((ns, na))
-    else:
-        C = np.hstack([-model.cphi @ model.Omega, -model.cphi @ model.Gamma])
-        D = model.cphi @ model.phib
-    states = [f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)]
+    A, B, C, D = second_order(model.Omega, model.Gamma, model.phib, model.cphi, k)
+    states = modal_states(n)
     if model.E is not None:
         if k == 0:
             D = D + model.E
         else:
             wc = np.float64(omega_c if omega_c is not None else default_omega_c(model))
-            # one critically damped correction state pair per actuator:
-            # z'' + 2 wc z' + wc^2 z = wc^2 u  ->  z = wc^2/(s+wc)^2 u
-            Zc, Ic = np.zeros((na, na)), np.eye(na)
-            Ac = np.block([[Zc, Ic], [-wc**2 * Ic, -2 * wc * Ic]])
-            Bc = np.vstack([Zc, wc**2 * Ic])
-            if k == 1:
-                Cc = np.hstack([np.zeros((ns, na)), model.E])
-                Dc = np.zeros((ns, na))
-            else:
-                Cc = np.hstack([-wc**2 * model.E, -2 * wc * model.E])
-                Dc = wc**2 * model.E
+            # E s^k through one critically damped correction state pair per actuator (2.20)
+            Z0 = np.zeros((ns, na))
+            Ac, Bc, Cc, Dc = correction_filter(model.E if k == 1 else Z0,
+                                               model.E if k == 2 else Z0, wc)
             A = np.block([[A, np.zeros((2 * n, 2 * na))], [np.zeros((2 * na, 2 * n)), Ac]])
             B = np.vstack([B, Bc])
             C = np.hstack([C, Cc])

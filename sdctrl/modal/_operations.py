@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.statespace import second_order
 from sdctrl._lib.validate import as_array, check_square
 
 __all__ = ["gain", "modified", "poles", "renormalised", "sym_change", "with_feedback"]
@@ -244,8 +245,7 @@ def poles(model) -> np.ndarray:
     >>> np.round(poles(nm), 4)
     array([-0.2+1.99j])
     """
-    n = model.n
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-model.Omega, -model.Gamma]])
+    A = second_order(model.Omega, model.Gamma, model.phib, model.cphi)[0]
     lam = np.linalg.eigvals(A)
     scale = max(np.abs(lam).max(), 1.0)
     lam = lam[lam.imag >= -1e-12 * scale]

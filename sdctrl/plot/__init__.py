@@ -16,12 +16,11 @@ only when a figure is drawn; a headless Linux session uses the ``Agg`` backend.
   channel, residual per line and residual maps.
 """
 
-from sdctrl.plot._indicators import cmif, stabilisation, stabilisation_flags, stabilization
+from sdctrl.plot._indicators import cmif, stabilisation, stabilisation_flags
 from sdctrl.plot._maps import cost_map, mac
 from sdctrl.plot._diagnosis_plot import diagnosis
 from sdctrl.plot._responses import bode, envelope, phase_display
 from sdctrl.plot._shape_plots import complex_residues, mode_shapes, phase_dispersion
 
 __all__ = ["bode", "cmif", "complex_residues", "cost_map", "diagnosis", "envelope", "mac",
-           "mode_shapes", "phase_dispersion", "phase_display", "stabilisation", "stabilisation_flags",
-           "stabilization"]
+           "mode_shapes", "phase_dispersion", "phase_display", "stabilisation", "stabilisation_flags"]

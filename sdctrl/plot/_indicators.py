@@ -14,7 +14,7 @@ from sdctrl.plot._figure import FREQ_LABEL, db, db_label, figure, finish, log_x_
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["cmif", "stabilisation", "stabilisation_flags", "stabilization"]
+__all__ = ["cmif", "stabilisation", "stabilisation_flags"]
 
 #: marker, colour and legend of each stability class (index = flag)
 _CLASSES = (
@@ -296,7 +296,3 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
         fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=4,
                    fontsize=8, frameon=False)
     return finish(fig, path, title or "stabilisation diagram")
-
-
-#: American spelling of :func:`stabilisation`
-stabilization = stabilisation

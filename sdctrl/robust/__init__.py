@@ -6,7 +6,8 @@ bounds from several tests, 5.2.3) give an :class:`UncertainModel`; its linear fr
 :func:`robust_stability` bounds from above (D-G scalings, certified over the frequency axis)
 and from below (a destabilising real perturbation).
 
-- ``_uncertainty``: :class:`UncertainModel`, bounds, the LFT (5.5);
+- ``_uncertainty``: :class:`UncertainModel`, bounds (:func:`psd_gamma_bound`: the damping
+  couplings ``Gamma`` positive semi-definite allows, 5.2.2), the LFT (5.5);
 - ``_multitest``: statistics of several identified models of one structure (5.2.3);
 - ``_stability``: :func:`robust_stability`, :func:`worst_case_gain`;
 - ``mu``: the structured singular value of one matrix and over frequency.
@@ -17,7 +18,7 @@ This package works on the matrices of a second-order model and never imports
 
 from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
 from sdctrl.robust._stability import RobustResult, robust_stability, worst_case_gain
-from sdctrl.robust._uncertainty import UncertainModel
+from sdctrl.robust._uncertainty import UncertainModel, psd_gamma_bound
 
 __all__ = ["MultiTestResult", "RobustResult", "UncertainModel", "multi_test_statistics",
-           "robust_stability", "worst_case_gain"]
+           "psd_gamma_bound", "robust_stability", "worst_case_gain"]

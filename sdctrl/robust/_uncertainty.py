@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sdctrl._lib.statespace import ss_frf
+from sdctrl._lib.statespace import modal_states, second_order, ss_frf
 from sdctrl._lib.display import MAX_ROWS, markdown_table, one_line
 from sdctrl._lib.validate import as_array, check_freq, check_int, check_seed, readonly, signal_names
 from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
@@ -139,14 +139,14 @@ class UncertainModel:
         """Nominal model as a python-control StateSpace (displacement outputs)."""
         return self.perturbed(np.zeros(len(self.params)))
 
-    def _matrices(self):
+    def _matrices(self, Omega=None, Gamma=None, phib=None, cphi=None):
+        """Displacement realisation (2.15) of the nominal model, or of perturbed matrices."""
         m = self.model
-        n, ns, na = m.n, m.ns, m.na
-        A = np.block([[np.zeros((n, n)), np.eye(n)], [-m.Omega, -m.Gamma]])
-        B = np.vstack([np.zeros((n, na)), m.phib])
-        C = np.hstack([m.cphi, np.zeros((ns, n))])
-        D = np.zeros((ns, na)) if m.E is None else np.array(m.E, float)
-        return A, B, C, D
+        A, B, C, D = second_order(m.Omega if Omega is None else Omega,
+                                  m.Gamma if Gamma is None else Gamma,
+                                  m.phib if phib is None else phib,
+                                  m.cphi if cphi is None else cphi)
+        return A, B, C, D if m.E is None else D + m.E
 
     def compact_lft(self) -> CompactLFT:
         """The Delta channels through the few signals they read and drive (exact, affine).
@@ -222,12 +222,11 @@ class UncertainModel:
                                        extra_outputs=[f"{c}_z" for c in chans])
         P = control.ss(A, np.hstack([Bw, B]), np.vstack([Cz, C]),
                        np.block([[np.zeros((r, r)), Dzu], [Dyw, D]]),
-                       inputs=inputs, outputs=outputs,
-                       states=[f"p{j}" for j in range(m.n)] + [f"dp{j}" for j in range(m.n)])
+                       inputs=inputs, outputs=outputs, states=modal_states(m.n))
         return P, self.blocks
 
-    def perturbed_matrices(self, deltas):
-        """Matrices ``(Omega, Gamma, phib, cphi)`` for normalised parameters ``deltas``.
+    def _perturbed_matrices(self, deltas):
+        """Matrices ``(Omega, Gamma, phib, cphi)`` for normalised parameters ``deltas`` (5.5).
 
         Parameters
         ----------
@@ -254,21 +253,6 @@ class UncertainModel:
                 mats[kind][j, i] += beta * dk
         return mats["Omega"], mats["Gamma"], mats["b"], mats["c"]
 
-    def perturbed_model(self, deltas):
-        """Perturbed :class:`NormalModeModel` for normalised ``deltas``.
-
-        Parameters
-        ----------
-        deltas : array_like (nblocks,)
-            Normalised parameter values.
-
-        Returns
-        -------
-        NormalModeModel
-        """
-        Om, Ga, b, c = self.perturbed_matrices(deltas)
-        return self.model.replace(Omega=Om, Gamma=Ga, phib=b, cphi=c)
-
     def perturbed(self, deltas):
         """StateSpace of the model perturbed by normalised ``deltas`` (built directly, not by LFT).
 
@@ -283,16 +267,11 @@ class UncertainModel:
         """
         import control
 
-        Om, Ga, b, c = self.perturbed_matrices(deltas)
+        Om, Ga, b, c = self._perturbed_matrices(deltas)
         m = self.model
-        n, ns = m.n, m.ns
-        A = np.block([[np.zeros((n, n)), np.eye(n)], [-Om, -Ga]])
-        B = np.vstack([np.zeros((n, m.na)), b])
-        C = np.hstack([c, np.zeros((ns, n))])
-        D = np.zeros((ns, m.na)) if m.E is None else np.array(m.E, float)
         inputs, outputs = signal_names(m.sensors, m.actuators)
-        return control.ss(A, B, C, D, inputs=inputs, outputs=outputs,
-                          states=[f"p{j}" for j in range(n)] + [f"dp{j}" for j in range(n)])
+        return control.ss(*self._matrices(Om, Ga, b, c), inputs=inputs, outputs=outputs,
+                          states=modal_states(m.n))
 
     def sample_deltas(self, n: int, seed=None) -> np.ndarray:
         """Uniform random normalised parameters, shape ``(n, nblocks)``.

@@ -11,10 +11,9 @@
 - sensitivity.py: identifiability (Table 4.1) and cost maps (Figure 4.6);
 - sweep.py: accuracy of perturbation and reanalysis over a parameter sweep (Figure 4.3).
 
-Parameters (4.15) are :class:`sdctrl.Parameter` objects (defined with the FE models).
+Parameters (4.15) are :class:`sdctrl.Parameter` objects (their one home is :mod:`sdctrl.fe`).
 """
 
-from sdctrl.fe._parameters import Parameter
 from sdctrl.updating._ritz_basis import ReducedBasis, reduced_basis
 from sdctrl.updating._mode_correlation import (
     frequency_error,
@@ -29,7 +28,7 @@ from sdctrl.updating._problem import apply_parameters
 from sdctrl.updating._identifiability import CostMap, Identifiability, identifiability
 from sdctrl.updating._reduced_accuracy import ReanalysisErrors, reanalysis_errors
 
-__all__ = ["CostMap", "Identifiability", "Parameter", "ReanalysisErrors", "ReducedBasis",
+__all__ = ["CostMap", "Identifiability", "ReanalysisErrors", "ReducedBasis",
            "ReducedModel", "UpdateResult", "apply_parameters", "comac", "frequency_error",
            "identifiability", "logls", "mac", "mixed_orthogonality", "modal_energies",
            "observability_error", "perturbation", "quadratic", "reanalysis_errors",

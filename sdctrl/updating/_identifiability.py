@@ -35,7 +35,7 @@ from sdctrl._lib.display import markdown_table
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.updating._update_fit import FMAX_FACTOR, check_parameters, damping_choice
-from sdctrl.updating._placed_test import error_level, identify_test, measured_modes, place_test
+from sdctrl.updating._placed_test import error_level, identify_measured, measured_modes, place_test
 from sdctrl.updating._problem import build_problem, log_frf
 
 __all__ = ["CostMap", "CostProblem", "Identifiability", "identifiability"]
@@ -294,7 +294,7 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     need_id = (choice[0] == "modal" and choice[1] is None and given is None) or \
         (noise is None and measured.frf.coherence is None)
     if need_id:
-        cm = identify_test(measured)
+        cm = identify_measured(measured)
     modes = None
     if choice[0] == "modal" and choice[1] is None:
         modes = measured_modes(measured, given if given is not None else cm)

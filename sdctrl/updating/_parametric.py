@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["ReducedModel", "modal_damping", "perturbation", "reduced_model"]
+__all__ = ["ReducedModel", "damping_from_modal", "perturbation", "reduced_model"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,7 +203,7 @@ def _direct_frf(w2, G, cX, Xb, s):
     return cX @ np.linalg.solve(Z, rhs)
 
 
-def modal_damping(M, X, Gamma) -> np.ndarray:
+def damping_from_modal(M, X, Gamma) -> np.ndarray:
     """Reduced damping matrix whose modal projection on ``X`` is ``Gamma``: ``M X Gamma X^T M``.
 
     Parameters

@@ -27,7 +27,7 @@ import numpy as np
 from sdctrl._lib.validate import QUANTITY_POWER, check_band
 from sdctrl.fe._fe_model import check_fe_model
 
-__all__ = ["Measured", "MeasuredModes", "error_level", "identify_test", "measured_modes",
+__all__ = ["Measured", "MeasuredModes", "error_level", "identify_measured", "measured_modes",
            "place_test"]
 
 #: the modes are identified on at most this many lines (every k-th line of a longer test;
@@ -177,7 +177,7 @@ def _from_complex(cm, sensors, source):
                      None, source)
 
 
-def identify_test(measured: Measured):
+def identify_measured(measured: Measured):
     """Complex modes of the test: :func:`sdctrl.identify` on the band (every k-th line when it
     holds more than :data:`ID_MAX_LINES`: frequencies, damping and shapes need no more).
 
@@ -216,7 +216,7 @@ def measured_modes(measured: Measured, identified=None) -> MeasuredModes:
         The test placed on the FE model.
     identified : NormalModeModel or ComplexModeModel, optional
         An identified model of the test (sensors labelled like the test's); default:
-        :func:`identify_test`, then :func:`sdctrl.normal_modes` of its in-band modes when
+        :func:`identify_measured`, then :func:`sdctrl.normal_modes` of its in-band modes when
         the test has collocated pairs.
 
     Returns
@@ -232,7 +232,7 @@ def measured_modes(measured: Measured, identified=None) -> MeasuredModes:
     if identified is not None and not isinstance(identified, ComplexModeModel):
         raise TypeError("identified must be a NormalModeModel or a ComplexModeModel, got "
                         f"{type(identified).__name__}")
-    cm = identify_test(measured) if identified is None else identified
+    cm = identify_measured(measured) if identified is None else identified
     if measured.frf.collocated and np.any(cm.in_band):
         try:
             with warnings.catch_warnings():
@@ -253,7 +253,7 @@ def error_level(measured: Measured, identified=None, n_averages: int = 1) -> tup
         The test.
     identified : ComplexModeModel or NormalModeModel, optional
         Model whose misfit measures the error when there is no coherence (default:
-        :func:`identify_test`).
+        :func:`identify_measured`).
     n_averages : int
         Averages of the FRF estimate (coherence-based level).
 
@@ -269,7 +269,7 @@ def error_level(measured: Measured, identified=None, n_averages: int = 1) -> tup
         coh = np.broadcast_to(frf.coherence if frf.coherence.ndim == 3 else
                               frf.coherence[:, :, None], frf.H.shape)
         return float(np.mean((1.0 - coh) / (2.0 * n_averages))), "coherence"
-    model = identify_test(measured) if identified is None else identified
+    model = identify_measured(measured) if identified is None else identified
     pred = model.frf(frf.freq, frf.quantity)
     r2 = (np.log(np.abs(pred.H) + 1e-300) - np.log(np.abs(frf.H) + 1e-300)) ** 2
     return float(np.median(r2) / CHI2_MEDIAN), "identified fit"

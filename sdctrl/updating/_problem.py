@@ -24,7 +24,7 @@ import scipy.sparse as sp
 
 from sdctrl.updating._ritz_basis import reduced_basis
 from sdctrl.updating._costs import mac as mac_matrix
-from sdctrl.updating._parametric import modal_damping, reduced_model
+from sdctrl.updating._parametric import damping_from_modal, reduced_model
 
 __all__ = ["UpdateProblem", "apply_parameters", "build_problem", "cluster_pairing", "log_frf"]
 
@@ -290,7 +290,7 @@ class UpdateProblem:
             G = np.diag(2 * self.ratio * w)
         else:
             G = self._modal_gamma(p, w)
-        return replace(self, rm=self.rm.with_damping(modal_damping(M, X, G)), p_ref=p.copy())
+        return replace(self, rm=self.rm.with_damping(damping_from_modal(M, X, G)), p_ref=p.copy())
 
     def _modal_gamma(self, p, w) -> np.ndarray:
         tm = self.modes

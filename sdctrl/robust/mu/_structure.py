@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["KINDS", "BlockStructure", "Factored"]
+__all__ = ["BLOCK_KINDS", "BlockStructure", "Factored"]
 
-KINDS = ("real", "complex", "full")
+BLOCK_KINDS = ("real", "complex", "full")
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,8 +73,8 @@ class BlockStructure:
         sizes = tuple(int(r) for r in self.sizes)
         kinds = tuple(str(k) for k in self.kinds)
         if len(sizes) != len(kinds) or any(r < 1 for r in sizes) or any(
-                k not in KINDS for k in kinds):
-            raise ValueError(f"blocks must be positive sizes with kinds in {KINDS}")
+                k not in BLOCK_KINDS for k in kinds):
+            raise ValueError(f"blocks must be positive sizes with kinds in {BLOCK_KINDS}")
         object.__setattr__(self, "sizes", sizes)
         object.__setattr__(self, "kinds", kinds)
         starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(int)

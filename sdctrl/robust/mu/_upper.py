@@ -230,8 +230,8 @@ def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol:
 
     Parameters
     ----------
-    fm : Factored
-        The matrix (possibly as ``L K R``).
+    fm : Factored or array_like, shape (N, N)
+        The matrix, complex (possibly factored as ``L K R``).
     st : BlockStructure
         Uncertainty structure (``st.N`` channels).
     x0 : ndarray, optional
@@ -257,6 +257,8 @@ def dg_upper(fm: Factored, st: BlockStructure, x0=None, stop: float = 0.0, rtol:
     x : ndarray
         Scalings (parameter vector) that certify it; :meth:`BlockStructure.dense_scalings`.
     """
+    if not isinstance(fm, Factored):
+        fm = Factored(np.asarray(fm, complex))
     if x0 is None:
         x0 = st.start(osborne(block_norms(fm, st)[None])[0])
     x0 = np.array(x0, float)
