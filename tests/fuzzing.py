@@ -322,7 +322,7 @@ def collocated_kind(ns: int, na: int) -> Kind:
         "float": Cls(_fixed([(0.0, 0.0)]), REFUSE),
         "bool": Cls(_fixed([(True, False)]), REFUSE),
         "triple": Cls(_fixed([(0, 0, 0)]), REFUSE),
-        "flat": Cls(_fixed((0, 0)), REFUSE),
+        "flat": Cls(_fixed((0, 0)), OK),              # one pair (API.md: "one pair or a list")
         "string": Cls(_fixed("0,0"), REFUSE),
         "number": Cls(_fixed(1), REFUSE),
         "nan": Cls(_fixed([(float("nan"), 0)]), REFUSE),

@@ -56,7 +56,7 @@ def _build_robust(**values):
 _MODAL = {k: "f" for k in ("Omega", "Gamma", "cphi", "phib", "E", "F", "shapes")}
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
-                "units"), kinds={"freq": "f", "H": "c", "coherence": "f"})
+                "units", "exponential_tau"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"})
 register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL)
