@@ -56,6 +56,12 @@ class ComplexModeModel:
         Frequency band (Hz) of the fit.
     info : dict, optional
         Diagnostics of the fit (iterations, warnings, optimiser).
+    exponential_tau : float, optional
+        Time constant (s) of the exponential window ``exp(-t/tau)`` of the data
+        (``FRF.exponential_tau``, impact tests) the poles are corrected for: the window added
+        ``1/tau`` (rad/s) to every decay rate, :func:`~sdctrl.identify` removed it
+        (``poles.real += 1/tau``), so ``poles``, ``frequency`` and ``damping`` are those of the
+        structure; None when no correction was applied.
     """
 
     poles: np.ndarray
@@ -69,6 +75,7 @@ class ComplexModeModel:
     collocated: tuple[tuple[int, int], ...] = ()
     band: tuple[float, float] | None = None
     info: dict = field(default_factory=dict, repr=False)
+    exponential_tau: float | None = None
 
     def __post_init__(self):
         lam = as_array(self.poles, "poles", ndim=1, dtype=complex)
@@ -99,6 +106,9 @@ class ComplexModeModel:
         sets(self, "collocated", check_collocated(self.collocated, ns, na, "collocated",
                                                   sensors, actuators))
         sets(self, "info", check_info(self.info))
+        if self.exponential_tau is not None:
+            sets(self, "exponential_tau", check_scalar(self.exponential_tau, "exponential_tau",
+                                                       positive=True))
 
     # --- display --------------------------------------------------------------------
     def __repr__(self) -> str:
