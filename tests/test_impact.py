@@ -2,6 +2,7 @@
 3-mode system, damping corrected for the exponential window, double hits and overloads, and
 one meaning of ``band`` in ``identify``."""
 
+import pathlib
 import warnings
 
 import numpy as np
@@ -196,3 +197,37 @@ def test_band_argument_is_the_band_method_on_the_testbed():
     assert a.n == b.n
     np.testing.assert_allclose(a.frequency, b.frequency, rtol=1e-4)
     np.testing.assert_array_equal(a.in_band, b.in_band)
+
+
+REAL = pathlib.Path(__file__).resolve().parents[1] / "examples" / "data" / "impact_pyfrf"
+
+
+def test_real_impact_records():
+    """The 5 hammer hits of pyFRF (MIT, examples/data/impact_pyfrf): H1 with the source's
+    windows, the documented resonances found, damping corrected for the window, and one
+    meaning of ``band``."""
+    hits = [tuple(np.load(REAL / f"measurements_{k}.npy")[1:]) for k in range(1, 6)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sd.ImpactWarning)   # no double hit, overload
+        frf = sd.impact_frf(hits, 25600.0, force_window=0.01, exponential=0.01,
+                            quantity="accelerance")
+    assert frf.shape == (12800, 1, 1) and frf.quantity == "acceleration"
+    assert frf.exponential_tau == pytest.approx((25599 / 25600) / np.log(100), rel=1e-12)
+    assert frf.band(10, 5000).coherence.mean() > 0.99       # source: about 0.998
+    band = (3500.0, 4500.0)
+    a = sd.identify(frf, band=band, progress=False)
+    b = sd.identify(frf.band(*band), progress=False)
+    assert a.n == b.n
+    np.testing.assert_allclose(a.frequency, b.frequency, rtol=1e-4)
+    for f0 in (3669.0, 3689.0, 4128.0, 4164.0, 4392.0):     # the source's strongest peaks
+        assert np.min(np.abs(a.frequency - f0)) < 3.0
+    assert a.cost < 0.1                                     # measured: 5.0%
+    # the window's decay rate 1/tau removed from every pole, nothing else changed
+    raw = sd.identify(sd.FRF(frf.freq, frf.H, quantity="acceleration"), band=band,
+                      progress=False)
+    np.testing.assert_allclose(a.poles.real - raw.poles.real, 1 / frf.exponential_tau,
+                               rtol=1e-6)
+    assert np.all(a.damping > 0) and np.all(a.damping < raw.damping)
+    # light damping: the window is most of the apparent damping of the 4164 Hz mode
+    j = np.argmin(np.abs(a.frequency - 4164.0))
+    assert raw.damping[j] > 2 * a.damping[j]
