@@ -105,3 +105,30 @@ def test_exponential_tau_survives_operations_and_storage(tmp_path):
     for bad in (0.0, -1.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="exponential_tau"):
             sd.FRF(F, _two_dof(F), exponential_tau=bad)
+
+
+def test_normal_modes_of_a_roving_hammer_survey_by_reciprocity():
+    """2 accelerometers (at hit points 0 and 1), 8 hit points, 4 modes with proportional
+    damping: fewer sensors than modes, so ``normal_modes`` works on the transposed test,
+    says so, and returns the survey's orientation with the exact poles and FRFs."""
+    rng = np.random.default_rng(4)
+    w = 2 * np.pi * np.array([11.0, 23.0, 37.0, 52.0])
+    z = np.array([0.01, 0.02, 0.015, 0.01])
+    lam = -z * w + 1j * w * np.sqrt(1 - z**2)
+    phi = rng.standard_normal((8, 4))                    # mass-normalised shapes at 8 points
+    # displacement residues of mode j: phi_s phi_a / (2 j Im lam) (3.7, proportional damping)
+    R = np.einsum("sj,aj->jsa", phi[:2], phi) / (2j * lam.imag)[:, None, None]
+    labels = [f"P{i}.z" for i in range(8)]
+    cm = sd.ComplexModeModel(lam, R, sensors=labels[:2], actuators=labels,
+                             collocated=[(0, 0), (1, 1)])
+    with pytest.warns(RuntimeWarning, match="roving-hammer survey.*transposed test"):
+        nm = sd.normal_modes(cm)
+    assert nm.sensors == tuple(labels[:2]) and nm.actuators == tuple(labels)
+    assert nm.cphi.shape == (2, 4) and nm.phib.shape == (4, 8)
+    np.testing.assert_allclose(np.sort_complex(nm.poles), np.sort_complex(lam), rtol=1e-9)
+    f = np.linspace(5, 60, 300)
+    a, b = nm.frf(f).H, cm.frf(f).H
+    assert np.abs(a - b).max() < 1e-8 * np.abs(b).max()
+    # the collocated pairs stay dual: c_s = b_a^T
+    np.testing.assert_allclose(nm.cphi[0], nm.phib[:, 0], rtol=1e-8)
+    np.testing.assert_allclose(nm.cphi[1], nm.phib[:, 1], rtol=1e-8)

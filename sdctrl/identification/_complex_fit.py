@@ -72,7 +72,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     Parameters
     ----------
     frf : FRF
-        Measured FRFs (displacement, velocity or acceleration per unit force).
+        Measured FRFs (displacement, velocity or acceleration per unit force).  The fit is
+        the same for ``frf`` and ``frf.transpose()`` (common poles, full residue matrices),
+        so a roving-hammer survey (few sensors, many hit points) is fitted as it is; the
+        model keeps the test's orientation and :func:`~sdctrl.normal_modes` transposes by
+        itself where it needs more sensors than modes.
     poles : array_like of complex, optional
         Initial poles in rad/s (Im > 0, Re < 0).  When None, the poles are found
         automatically: the poles of an LSCF polynomial model of a few principal
