@@ -284,6 +284,8 @@ def quantity_kind(optional: bool = False) -> Kind:
         "bytes": Cls(_fixed(b"velocity"), REFUSE),
         "list": Cls(_fixed(["velocity"]), REFUSE),
         "upper": Cls(_pick("VELOCITY", "Acceleration")),
+        "abbreviation": Cls(_pick("acc", "accel", "disp", "vel"), REFUSE),
+        "standard_name": Cls(_pick("receptance", "mobility", "accelerance", "inertance"), OK),
         "other": Cls(_pick("displacement", "velocity", "acceleration"), OK),
     })
 

@@ -111,6 +111,9 @@ def impact_frf(hits, fs: float, *, force_window: float | None = None,
     fs = check_scalar(fs, "fs", positive=True)
     F, Y = _hit_records(hits)
     nh, n, ns = Y.shape
+    if not (fs / n > 0 and np.isfinite(n / fs)):
+        raise ValueError(f"fs must give a finite record length and line spacing for {n} "
+                         f"samples, got {fs:g} Hz")
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
     q = check_quantity(quantity, "quantity")
