@@ -78,7 +78,8 @@ def impact_frf(hits, fs: float, *, force_window: float | None = None,
     Returns
     -------
     FRF
-        Lines ``k fs / n`` for ``k = 1 .. n // 2`` (Hz), one actuator, ``coherence`` the
+        Lines ``k fs / n`` for ``k = 1 .. n // 2`` (Hz), one actuator (the force's offset, the
+        median of its record, removed; the responses as recorded), ``coherence`` the
         ordinary coherence of each sensor over the hits (identically 1 for a single hit),
         ``exponential_tau`` the window's ``tau`` in s (None without it).
 
@@ -120,18 +121,20 @@ def impact_frf(hits, fs: float, *, force_window: float | None = None,
     sensors = check_labels(sensors, ns, "sensors", "s")
     if actuator is not None and not isinstance(actuator, str):
         raise TypeError(f"actuator must be a label (str) or None, got {type(actuator).__name__}")
-    for k in range(nh):
-        _check_hit(F[k], Y[k], k, sensors)
-    F = F - np.median(F, axis=1, keepdims=True)          # load-cell offset
     if force_window is not None:
         force_window = check_scalar(force_window, "force_window", positive=True, hi=1.0)
-        F[:, max(int(np.ceil(force_window * n)), 1):] = 0.0
-    tau = None
     if exponential is not None:
         exponential = check_scalar(exponential, "exponential", positive=True)
         if not exponential < 1:
             raise ValueError(f"exponential must lie in (0, 1) (the window's value at the "
                              f"record's end), got {exponential:g}")
+    for k in range(nh):
+        _check_hit(F[k], Y[k], k, sensors)
+    F = F - np.median(F, axis=1, keepdims=True)          # load-cell offset
+    if force_window is not None:
+        F[:, max(int(np.ceil(force_window * n)), 1):] = 0.0
+    tau = None
+    if exponential is not None:
         tau = -((n - 1) / fs) / np.log(exponential)
         w = np.exp(-np.arange(n) / fs / tau)
         F, Y = F * w, Y * w[:, None]
