@@ -22,6 +22,8 @@ _EXPORTS = {
     # measured data
     "FRF": "sdctrl.data",
     "estimate_frf": "sdctrl.data",
+    "impact_frf": "sdctrl.data",
+    "ImpactWarning": "sdctrl.data",
     "read_uff": "sdctrl.data",
     "write_uff": "sdctrl.data",
     # identification (chapter III)

@@ -284,6 +284,8 @@ def quantity_kind(optional: bool = False) -> Kind:
         "bytes": Cls(_fixed(b"velocity"), REFUSE),
         "list": Cls(_fixed(["velocity"]), REFUSE),
         "upper": Cls(_pick("VELOCITY", "Acceleration")),
+        "abbreviation": Cls(_pick("acc", "accel", "disp", "vel"), REFUSE),
+        "standard_name": Cls(_pick("receptance", "mobility", "accelerance", "inertance"), OK),
         "other": Cls(_pick("displacement", "velocity", "acceleration"), OK),
     })
 
@@ -322,7 +324,7 @@ def collocated_kind(ns: int, na: int) -> Kind:
         "float": Cls(_fixed([(0.0, 0.0)]), REFUSE),
         "bool": Cls(_fixed([(True, False)]), REFUSE),
         "triple": Cls(_fixed([(0, 0, 0)]), REFUSE),
-        "flat": Cls(_fixed((0, 0)), REFUSE),
+        "flat": Cls(_fixed((0, 0)), OK),              # one pair (API.md: "one pair or a list")
         "string": Cls(_fixed("0,0"), REFUSE),
         "number": Cls(_fixed(1), REFUSE),
         "nan": Cls(_fixed([(float("nan"), 0)]), REFUSE),

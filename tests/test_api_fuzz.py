@@ -277,6 +277,38 @@ def estimate_args():
             "actuators": ["u0", "u1"], "quantity": "displacement", "window": "hann"}
 
 
+def impact_args():
+    """Three hammer hits (an 8-sample pulse) on a 2-sensor response, 256 samples each."""
+    rng = np.random.default_rng(0)
+    t = np.arange(256)
+    pulse = np.where(t < 8, np.sin(np.pi * t / 8), 0.0)
+    h = np.exp(-t / 40)[:, None] * np.column_stack([np.sin(t / 3), np.cos(t / 5)])
+    hits = []
+    for k in range(3):
+        f = (1 + 0.1 * k) * pulse + 1e-3 * rng.standard_normal(t.size)
+        y = np.column_stack([np.convolve(f, h[:, i])[:t.size] for i in range(2)])
+        hits.append((f, y + 1e-3 * rng.standard_normal(y.shape)))
+    return {"hits": hits, "fs": 1000.0, "force_window": 0.2, "exponential": 0.05,
+            "estimator": "H1", "quantity": "accelerance", "sensors": ["y0", "y1"]}
+
+
+def _bad_hits(kind):
+    hits = impact_args()["hits"]
+    if kind == "nan":
+        hits[1][1][5, 0] = np.nan
+    elif kind == "short":
+        hits[2] = (hits[2][0][:-1], hits[2][1][:-1])
+    elif kind == "triple":
+        hits[0] = hits[0] + (hits[0][0],)
+    return hits
+
+
+def is_impact_frf(res, args=None):
+    is_frf(res, args)
+    assert res.H.shape[2] == 1 and res.coherence is not None
+    assert (res.exponential_tau is None) == (args is None or args.get("exponential") is None)
+
+
 ENTRIES = [
     # --- data -------------------------------------------------------------------------
     Entry("FRF", _call(sd.FRF), frf_args, {
@@ -308,6 +340,13 @@ ENTRIES = [
            "y": Arg(REAL.but(zero=ANY), ("u",)), "fs": number(),
            "nperseg": integer(8, optional=True), "sensors": LAB, "actuators": LAB,
            "quantity": QTY, "window": choice_kind("hann", "boxcar")}, is_frf),
+    Entry("impact_frf", _call(sd.impact_frf), impact_args,
+          {"hits": obj_kind(("empty", [], REFUSE), ("nan", lambda: _bad_hits("nan"), REFUSE),
+                            ("short", lambda: _bad_hits("short"), REFUSE),
+                            ("triple", lambda: _bad_hits("triple"), REFUSE)),
+           "fs": number(), "force_window": number(optional=True),
+           "exponential": number(optional=True), "estimator": choice_kind("H1", "H2", "Hv"),
+           "quantity": QTY, "sensors": LAB}, is_impact_frf),
     Entry("read_uff", _call(sd.read_uff), lambda: {"path": str(UFF_PATH)},
           {"path": READ_PATH}, is_frf, errors=FILE_ERRORS),
     Entry("write_uff", _call(sd.write_uff),
@@ -723,7 +762,7 @@ if os.environ.get("SDCTRL_FUZZ_SWEEP"):
 
 
 #: public names without arguments to fuzz (result classes, a fixed testbed)
-NO_ROW = {"testbed", "RobustResult", "UpdateResult", "Identifiability", "Diagnosis", "Effect",
+NO_ROW = {"testbed", "ImpactWarning", "RobustResult", "UpdateResult", "Identifiability", "Diagnosis", "Effect",
           "HybridModel", "PlacementStudy"}
 #: names API.md announces (other work): merging them keeps CI green, but test_every_public_
 #: name_has_a_row xfails, naming them, until their rows are added to ENTRIES

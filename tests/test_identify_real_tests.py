@@ -94,3 +94,15 @@ def test_hammer_survey_frf_error(survey):
     assert sys.ninputs == 75 and sys.noutputs == 3
     assert np.abs(sd.FRF.from_system(sys, frf.freq).H - cm.frf(frf.freq).H).max() < \
         1e-8 * np.abs(cm.frf(frf.freq).H).max()
+
+
+def test_hammer_survey_fit_is_orientation_free(survey):
+    """The fit of the survey and of its transpose (reciprocity, 75 outputs x 3 inputs) is
+    one fit (common poles, full residue matrices): ``identify`` needs no transposition."""
+    frf, _lam, _R, _Ha, cm = survey
+    ct = sd.identify(frf.transpose(), band=BAND, progress=False)
+    assert ct.n == cm.n == 15                              # measured: equal to 1e-15
+    np.testing.assert_allclose(ct.poles, cm.poles, rtol=1e-9)
+    np.testing.assert_allclose(ct.residues, np.swapaxes(cm.residues, 1, 2), rtol=1e-6,
+                               atol=1e-9 * np.abs(cm.residues).max())
+    assert ct.cost == pytest.approx(cm.cost, rel=1e-9)

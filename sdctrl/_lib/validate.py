@@ -14,18 +14,27 @@ import numpy as np
 QUANTITIES = ("displacement", "velocity", "acceleration")
 #: power of ``j*omega`` that turns a displacement FRF into each quantity
 QUANTITY_POWER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+#: accepted quantity names (canonical and standard FRF names) -> canonical name
+QUANTITY_NAMES = {"displacement": "displacement", "velocity": "velocity",
+                  "acceleration": "acceleration", "receptance": "displacement",
+                  "mobility": "velocity", "accelerance": "acceleration",
+                  "inertance": "acceleration"}
 
 
 def check_quantity(quantity, name: str = "quantity") -> str:
-    """Return ``quantity`` if it is a known response quantity."""
+    """The canonical name of a response quantity (:data:`QUANTITIES`).
+
+    The standard FRF names are accepted too (:data:`QUANTITY_NAMES`): ``"receptance"``
+    (displacement), ``"mobility"`` (velocity), ``"accelerance"`` and ``"inertance"``
+    (acceleration); case is ignored.  Abbreviations (``"acc"``, ``"disp"``, ...) are refused:
+    a misspelt quantity would silently change the powers of ``j*omega`` applied.
+    """
     if not isinstance(quantity, str):
-        raise TypeError(f"{name} must be a string, one of {QUANTITIES}, got {type(quantity).__name__}")
-    q = quantity.lower()
-    aliases = {"disp": "displacement", "vel": "velocity", "acc": "acceleration",
-               "accel": "acceleration"}
-    q = aliases.get(q, q)
-    if q not in QUANTITIES:
-        raise ValueError(f"{name} must be one of {QUANTITIES}, got {quantity!r}")
+        raise TypeError(f"{name} must be a string, one of {tuple(QUANTITY_NAMES)}, got "
+                        f"{type(quantity).__name__}")
+    q = QUANTITY_NAMES.get(quantity.lower())
+    if q is None:
+        raise ValueError(f"{name} must be one of {tuple(QUANTITY_NAMES)}, got {quantity!r}")
     return q
 
 
@@ -283,9 +292,17 @@ def check_labels(labels, n: int, name: str, default_prefix: str) -> tuple[str, .
 def check_collocated(collocated, ns: int, na: int, name: str = "collocated",
                      sensors: Sequence[str] | None = None,
                      actuators: Sequence[str] | None = None) -> tuple[tuple[int, int], ...]:
-    """Collocated (sensor, actuator) index pairs, in range; labels are accepted too."""
+    """Collocated (sensor, actuator) index pairs, in range; labels are accepted too.
+
+    ``collocated`` is one pair ``(s, a)`` (two labels or indices) or a sequence of pairs.
+    """
     if collocated is None:
         return ()
+    if isinstance(collocated, str | bytes):
+        raise TypeError(f"{name} must be a (sensor, actuator) pair or a sequence of pairs, "
+                        f"got the string {collocated!r}")
+    if _is_pair(collocated):
+        collocated = [collocated]
     try:
         pairs = [tuple(p) for p in collocated]
     except TypeError as exc:
@@ -312,6 +329,16 @@ def check_collocated(collocated, ns: int, na: int, name: str = "collocated",
             raise ValueError(f"{name}: actuator index {a} out of range [0, {na})")
         out.append((int(s), int(a)))
     return tuple(out)
+
+
+def _is_pair(x) -> bool:
+    """True for one ``(sensor, actuator)`` pair: two labels or integer indices."""
+    try:
+        items = list(x)
+    except TypeError:
+        return False
+    return len(items) == 2 and all(isinstance(v, str | np.str_ | int | np.integer)
+                                   and not isinstance(v, bool) for v in items)
 
 
 class BandError(TypeError, ValueError):

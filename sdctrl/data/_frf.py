@@ -43,19 +43,29 @@ class FRF:
     H : array_like, shape (nf, ns, na)
         Complex responses ``H[f, sensor, actuator]``.  A 1-D array is taken as
         a single sensor/actuator pair, a 2-D array as ``(nf, ns)`` with one actuator.
-    quantity : {"displacement", "velocity", "acceleration"}
-        Measured response quantity per unit force.
+    quantity : str
+        Measured response quantity per unit force: ``"displacement"``, ``"velocity"`` or
+        ``"acceleration"``, or the standard FRF names ``"receptance"`` (displacement),
+        ``"mobility"`` (velocity), ``"accelerance"`` or ``"inertance"`` (acceleration),
+        stored as the canonical name.  Abbreviations are refused.
     sensors, actuators : sequence of str, optional
         Unique labels; FE DOF labels such as ``"N42.y"`` tie the test to an
         :class:`~sdctrl.FEModel`.  Defaults ``s0, s1, ...`` and ``a0, a1, ...``.
-    collocated : sequence of (int or str, int or str), optional
+    collocated : (int or str, int or str) or sequence of them, optional
         ``(sensor, actuator)`` pairs where sensor ``s`` is dual to actuator ``a``
-        (``c_s = b_a^T``), as indices or labels.
+        (``c_s = b_a^T``), as indices or labels; one pair or a sequence of pairs.
+        Default (None): every sensor and actuator of the same label form a pair (a
+        driving point); ``collocated=()`` declares none.
     coherence : array_like, optional
         Coherence in ``[0, 1]``, shape ``(nf, ns, na)`` or ``(nf, ns)`` (multiple
         coherence per sensor, shared by all actuators).
     units : str, optional
         Free text units of ``H`` (e.g. ``"m/s^2/N"``), kept by UFF I/O.
+    exponential_tau : float, optional
+        Time constant ``tau`` (s) of an exponential window ``exp(-t/tau)`` applied to the
+        response records (impact tests, :func:`~sdctrl.impact_frf`); None without one.
+        The window adds ``1/tau`` (rad/s) to the decay rate of every pole, which
+        :func:`~sdctrl.identify` removes.
 
     Examples
     --------
@@ -71,6 +81,7 @@ class FRF:
         "actuators",
         "coherence",
         "collocated",
+        "exponential_tau",
         "freq",
         "quantity",
         "sensors",
@@ -79,7 +90,8 @@ class FRF:
 
     def __init__(self, freq, H, quantity: str = "displacement",
                  sensors: Sequence[str] | None = None, actuators: Sequence[str] | None = None,
-                 collocated=None, coherence=None, units: str | None = None):
+                 collocated=None, coherence=None, units: str | None = None,
+                 exponential_tau: float | None = None):
         f = check_freq(freq, "freq")
         h = as_array(H, "H", ndim=(1, 2, 3), dtype=complex)
         if h.ndim == 1:
@@ -95,6 +107,8 @@ class FRF:
         nf, ns, na = h.shape
         s = check_labels(sensors, ns, "sensors", "s")
         a = check_labels(actuators, na, "actuators", "a")
+        if collocated is None:                  # a driving point: same label both sides
+            collocated = [(x, x) for x in s if x in a]
         col = check_collocated(collocated, ns, na, "collocated", s, a)
         coh = None
         if coherence is not None:
@@ -111,6 +125,8 @@ class FRF:
                 raise ValueError("coherence must lie in [0, 1]")
         if units is not None and not isinstance(units, str):
             raise TypeError(f"units must be a string or None, got {type(units).__name__}")
+        if exponential_tau is not None:
+            exponential_tau = check_scalar(exponential_tau, "exponential_tau", positive=True)
         object.__setattr__(self, "freq", readonly(f))
         object.__setattr__(self, "H", readonly(h))
         object.__setattr__(self, "quantity", q)
@@ -119,6 +135,7 @@ class FRF:
         object.__setattr__(self, "collocated", col)
         object.__setattr__(self, "coherence", readonly(coh))
         object.__setattr__(self, "units", units)
+        object.__setattr__(self, "exponential_tau", exponential_tau)
 
     def __setattr__(self, name, value):
         raise AttributeError("FRF is immutable; build a new one instead")
@@ -142,7 +159,8 @@ class FRF:
     def _replace(self, **changes) -> FRF:
         kw = {"freq": self.freq, "H": self.H, "quantity": self.quantity, "sensors": self.sensors,
               "actuators": self.actuators, "collocated": self.collocated,
-              "coherence": self.coherence, "units": self.units}
+              "coherence": self.coherence, "units": self.units,
+              "exponential_tau": self.exponential_tau}
         kw.update(changes)
         return FRF(**kw)
 
@@ -173,8 +191,9 @@ class FRF:
 
         Parameters
         ----------
-        quantity : {"displacement", "velocity", "acceleration"}
-            Target quantity.
+        quantity : str
+            Target quantity, a name :class:`FRF` accepts (``"acceleration"``,
+            ``"accelerance"``, ...).
 
         Returns
         -------
@@ -212,6 +231,26 @@ class FRF:
                              sensors=[self.sensors[i] for i in si],
                              actuators=[self.actuators[i] for i in ai],
                              collocated=col, coherence=coh)
+
+    def transpose(self) -> FRF:
+        """The reciprocal test: sensors and actuators exchanged, ``H[f, a, s]``.
+
+        Reciprocity (``H_sa = H_as`` for a structure with symmetric mass, damping and
+        stiffness, measured with dual sensors and actuators) makes a roving-hammer survey
+        (few fixed accelerometers, many hit points) a test with many outputs and few
+        inputs, the form the identification of the thesis (3.2, 3.46-3.47) prefers.
+
+        Returns
+        -------
+        FRF
+            ``H`` of shape ``(nf, na, ns)``, sensors and actuators swapped, collocated pairs
+            kept (each ``(s, a)`` becomes ``(a, s)``), coherence transposed; quantity, units
+            and ``exponential_tau`` unchanged.  ``frf.transpose().transpose()`` equals ``frf``.
+        """
+        coh = None if self.coherence is None else np.swapaxes(self.coherence, 1, 2)
+        return self._replace(H=np.swapaxes(self.H, 1, 2), sensors=self.actuators,
+                             actuators=self.sensors, coherence=coh,
+                             collocated=[(a, s) for s, a in self.collocated])
 
     @classmethod
     def from_system(cls, sys, freq, quantity: str = "displacement") -> FRF:

@@ -74,7 +74,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     Parameters
     ----------
     frf : FRF
-        Measured FRFs (displacement, velocity or acceleration per unit force).
+        Measured FRFs (displacement, velocity or acceleration per unit force).  The fit is
+        the same for ``frf`` and ``frf.transpose()`` (common poles, full residue matrices),
+        so a roving-hammer survey (few sensors, many hit points) is fitted as it is; the
+        model keeps the test's orientation and :func:`~sdctrl.normal_modes` transposes by
+        itself where it needs more sensors than modes.
     poles : array_like of complex, optional
         Initial poles in rad/s (Im > 0, Re < 0).  When None, the poles are found
         automatically: the poles of an LSCF polynomial model of a few principal
@@ -88,7 +92,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         The search stops when the fit is numerically exact, or after a round whose
         residual-peak candidates were all rejected.
     band : (float, float), optional
-        Frequency band in Hz (default: all lines of ``frf``).
+        Frequency band in Hz (default: all lines of ``frf``).  Only the lines of the band
+        are used: ``identify(frf, band=B)`` and ``identify(frf.band(*B))`` give the same
+        poles and residues (the model's ``band`` is ``B`` in the first, the span of the
+        lines in the second).  Modes just outside the band are still looked for (out-of-band
+        poles, ``in_band`` False) from their tails in the band.
     model : {"complex", "real"}
         Complex-mode parametrisation (3.7), or the real-mode one (3.9) (proportional
         damping, purely imaginary residues) for comparison.
@@ -136,6 +144,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     -------
     ComplexModeModel
         Poles sorted by frequency, displacement residues, ``E``, ``F``, ``in_band``,
+        ``exponential_tau`` (data with an exponential window, ``frf.exponential_tau``: the
+        poles are corrected for it, ``real += 1/tau``, so the damping is the structure's),
         ``cost`` (relative FRF error ``||H_fit - H||_F / ||H||_F`` in the band) and
         ``search`` (optimiser, evaluations, convergence, compression rank,
         interruption), ``warnings`` and, in automatic mode, ``stabilisation``: the LSCF
@@ -170,7 +180,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     """
     max_iter = _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
                               significance)
-    fband, data = _band(frf, band)
+    fband, data, shown = _band(frf, band)
     nf = data.freq.size
     asym = (True, True) if asymptotic else (False, False)
     npp = n_per_pole(model)
@@ -179,7 +189,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         e = _exponent(data.H)
         Hm = scaled(data.H.reshape(nf, -1), e)
         if auto:
-            w0, z0, side = peak_set(frf, data.freq, Hm.reshape(data.H.shape), fband, e)
+            w0, z0, side = peak_set(data, data.freq, Hm.reshape(data.H.shape), fband, e)
         else:
             w0, z0, side = _given_poles(poles, in_band, fband)
         _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
@@ -217,9 +227,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             info["nfev"] = prob.nfev
         finally:
             bar.close()
-        cm = _final_model(data, fband, Hm, normH2, (w, z, side), model, asym, info,
+        cm = _final_model(data, shown, Hm, normH2, (w, z, side), model, asym, info,
                           messages, e)
-    for msg in messages + fit_quality(cm, data):
+        quality = fit_quality(cm, data)            # against the data as measured (windowed)
+        cm = _window_corrected(cm, data.exponential_tau, messages)
+    for msg in messages + quality:
         warnings.warn(msg, IdentificationWarning, stacklevel=2)
     return cm
 
@@ -283,13 +295,39 @@ def _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max
 
 
 def _band(frf, band):
-    """The band (Hz) and the FRF lines in it (all lines when ``band`` is None)."""
+    """The FRF lines of the band, the band they span (Hz, the search's) and the band shown
+    on the model (``band`` as given, else the lines' span).  One meaning of a band: only its
+    lines are used, so ``identify(frf, band=B)`` is ``identify(frf.band(*B))``."""
     from sdctrl._lib.validate import check_band
 
     if band is None:
-        return (float(frf.freq[0]), float(frf.freq[-1])), frf
-    fband = check_band(band, "band")
-    return fband, frf.band(*fband)
+        data = frf
+    else:
+        band = check_band(band, "band")
+        data = frf.band(*band)
+    fband = (float(data.freq[0]), float(data.freq[-1]))
+    return fband, data, fband if band is None else band
+
+
+def _window_corrected(cm, tau, messages):
+    """Poles corrected for an exponential window ``exp(-t/tau)`` of the data: the window
+    shifted every pole by ``-1/tau`` (the FRF of ``h(t) exp(-t/tau)`` is ``H(s + 1/tau)``),
+    so ``real += 1/tau``; residues are unchanged.  A pole whose decay the window accounts
+    for entirely is kept at the damping floor and named."""
+    from dataclasses import replace
+
+    if tau is None:
+        return cm
+    lam = cm.poles + 1.0 / tau
+    floor = -ZETA_MIN * np.abs(lam)
+    low = ~(lam.real < floor)
+    if np.any(low):
+        messages.append("exponential window: the decay of the poles at " + ", ".join(
+            f"{v:.4g} Hz" for v in np.abs(lam[low]) / (2 * np.pi)) + f" is below the window's "
+            f"1/tau = {1 / tau:.4g} rad/s (damping not determined by the data); kept at "
+            f"damping {ZETA_MIN:g}: use a longer record or a weaker window")
+        lam = np.where(low, floor + 1j * lam.imag, lam)
+    return replace(cm, poles=lam, exponential_tau=tau)
 
 
 def _given_poles(poles, in_band, fband):

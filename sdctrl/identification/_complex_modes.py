@@ -65,6 +65,13 @@ class ComplexModeModel:
     search : SearchDiagnostics, optional
         How the pole search went (:class:`~sdctrl.identification._fit_records.SearchDiagnostics`:
         ``nfev``, ``converged``, ``compress_rank``, ``interrupted``...).
+        Diagnostics of the fit (iterations, warnings, optimiser).
+    exponential_tau : float, optional
+        Time constant (s) of the exponential window ``exp(-t/tau)`` of the data
+        (``FRF.exponential_tau``, impact tests) the poles are corrected for: the window added
+        ``1/tau`` (rad/s) to every decay rate, :func:`~sdctrl.identify` removed it
+        (``poles.real += 1/tau``), so ``poles``, ``frequency`` and ``damping`` are those of the
+        structure; None when no correction was applied.
     """
 
     poles: np.ndarray
@@ -81,6 +88,7 @@ class ComplexModeModel:
     stabilisation: Stabilisation | None = field(default=None, repr=False)
     warnings: tuple[str, ...] = field(default=(), repr=False)
     search: SearchDiagnostics | None = field(default=None, repr=False)
+    exponential_tau: float | None = None
 
     def __post_init__(self):
         lam = as_array(self.poles, "poles", ndim=1, dtype=complex)
@@ -112,6 +120,9 @@ class ComplexModeModel:
                                                   sensors, actuators))
         sets(self, "info", check_info(self.info))
         _check_records(self)
+        if self.exponential_tau is not None:
+            sets(self, "exponential_tau", check_scalar(self.exponential_tau, "exponential_tau",
+                                                       positive=True))
 
     # --- display --------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -158,7 +169,8 @@ class ComplexModeModel:
         """Copy with some fields changed (validated again)."""
         kw = {k: getattr(self, k) for k in ("poles", "residues", "E", "F", "in_band", "cost",
                                             "sensors", "actuators", "collocated", "band",
-                                            "info", "stabilisation", "warnings", "search")}
+                                            "info", "stabilisation", "warnings", "search",
+                                            "exponential_tau")}
         kw.update(changes)
         return ComplexModeModel(**kw)
 

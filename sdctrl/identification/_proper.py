@@ -27,6 +27,7 @@ from sdctrl._lib.validate import check_collocated
 from sdctrl.identification._complex_modes import scale_residues
 from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
+from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 
 __all__ = ["Properness", "normal_modes", "scaled_modes"]
 
@@ -188,7 +189,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         ``cm`` is not a ComplexModeModel or ``collocated`` is not a sequence of pairs.
     ValueError
         No collocated pair, pairs out of range, fewer sensors than modes (not treated
-        by the thesis), a mode unobserved at the collocated pairs, a Riccati iteration
+        by the thesis) with no more actuators than sensors (else the transposed test is used,
+        with a warning: reciprocity, a roving-hammer survey), a mode unobserved at the collocated pairs, a Riccati iteration
         that does not converge to a small root (``|eig(delta)| < 0.9``; the minimum
         condition 3.54 needs ``< 1``), or an identified mass
         or stiffness (3.45) that is not positive definite.
@@ -227,6 +229,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     if isinstance(maxiter, bool) or not isinstance(maxiter, int | np.integer) or maxiter < 1:
         raise ValueError(f"maxiter must be a positive integer, got {maxiter!r}")
+    if needs_transpose(cm, cm.n if modes is None else _mode_selection(modes, cm.n).size):
+        return via_transpose(normal_modes, cm, pairs, modes=modes, tol=tol, maxiter=maxiter)
     in_band = np.asarray(cm.in_band, bool)
     if modes is not None:
         return _transform(cm, _mode_selection(modes, cm.n), pairs, tol, maxiter)
