@@ -33,7 +33,8 @@ import re
 
 import numpy as np
 
-from sdctrl._lib.validate import as_statespace, check_band, check_scalar
+from sdctrl._lib.validate import check_band, check_scalar
+from sdctrl._lib.signals import as_statespace
 
 __all__ = ["RMSSnapshot", "assert_rms_matches", "load_snapshot", "record_rms"]
 

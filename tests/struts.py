@@ -10,7 +10,7 @@ from dataclasses import fields
 import control
 import numpy as np
 
-from sdctrl._lib.validate import signal_name, signal_names
+from sdctrl._lib.signals import signal_name, signal_names
 
 
 def rate_outputs(sys, outputs=None):

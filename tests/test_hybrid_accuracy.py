@@ -247,7 +247,7 @@ def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):
     static correction and the same closed loop."""
     from struts import strut_controller, strut_plant
 
-    from sdctrl._lib.validate import signal_name
+    from sdctrl._lib.signals import signal_name
 
     h, s = bed["h"], bed["s"]
     kp, kv = DSTRUT

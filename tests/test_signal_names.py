@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl._lib.validate import signal_name, signal_names
+from sdctrl._lib.signals import signal_name, signal_names
 from struts import rate_outputs
 
 

@@ -18,13 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from sdctrl._lib.bandint import band_integral, band_integral_undamped
-from sdctrl._lib.validate import (
-    as_array,
-    as_statespace,
-    check_band,
-    check_finite_result,
-    check_scalar,
-)
+from sdctrl._lib.validate import as_array, check_band, check_finite_result, check_scalar
+from sdctrl._lib.signals import as_statespace
 
 __all__ = ["feedback", "modal_damping", "rms"]
 

@@ -15,10 +15,8 @@ import numpy as np
 
 from sdctrl._lib.statespace import ss_frf
 from sdctrl._lib.validate import (
-    INPUT_SUFFIX,
     QUANTITY_POWER,
     as_array,
-    as_statespace,
     check_band,
     check_collocated,
     check_finite_result,
@@ -29,6 +27,7 @@ from sdctrl._lib.validate import (
     check_scalar,
     readonly,
 )
+from sdctrl._lib.signals import INPUT_SUFFIX, as_statespace
 
 __all__ = ["FRF", "estimate_frf"]
 

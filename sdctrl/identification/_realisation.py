@@ -14,13 +14,8 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from sdctrl._lib.statespace import correction_filter
-from sdctrl._lib.validate import (
-    QUANTITY_POWER,
-    check_finite_result,
-    check_quantity,
-    check_scalar,
-    signal_names,
-)
+from sdctrl._lib.validate import QUANTITY_POWER, check_finite_result, check_quantity, check_scalar
+from sdctrl._lib.signals import signal_names
 
 if TYPE_CHECKING:  # pragma: no cover
     from sdctrl.identification._complex_modes import ComplexModeModel

@@ -36,8 +36,8 @@ from sdctrl._lib.validate import (
     check_scalar,
     check_square,
     readonly,
-    signal_names,
 )
+from sdctrl._lib.signals import signal_names
 
 __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with_feedback"]
 

@@ -13,7 +13,8 @@ import warnings
 
 import numpy as np
 
-from sdctrl._lib.validate import check_freq, check_quantity, signal_name
+from sdctrl._lib.validate import check_freq, check_quantity
+from sdctrl._lib.signals import signal_name
 from sdctrl.data._frf import FRF
 
 #: channels shown by default when the data has no collocated pair

@@ -21,14 +21,8 @@ import numpy as np
 from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.statespace import ss_frf
 from sdctrl._lib.threads import single_thread
-from sdctrl._lib.validate import (
-    as_statespace,
-    check_executor,
-    check_freq,
-    check_int,
-    check_scalar,
-    check_seed,
-)
+from sdctrl._lib.validate import check_executor, check_freq, check_int, check_scalar, check_seed
+from sdctrl._lib.signals import as_statespace
 from sdctrl.robust.mu._upper import BlockStructure, Factored, certify_dg, dg_upper, mu_upper
 from sdctrl.robust.mu._lower import destabilise, perturbed_A
 from sdctrl.robust.mu._frequency_sweep import FactoredSystem, cheap_bounds, cover

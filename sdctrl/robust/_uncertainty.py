@@ -21,7 +21,8 @@ import numpy as np
 
 from sdctrl._lib.statespace import modal_states, second_order, ss_frf
 from sdctrl._lib.display import MAX_ROWS, markdown_table, one_line
-from sdctrl._lib.validate import as_array, check_freq, check_int, check_seed, readonly, signal_names
+from sdctrl._lib.validate import as_array, check_freq, check_int, check_seed, readonly
+from sdctrl._lib.signals import signal_names
 from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
 
 __all__ = [
