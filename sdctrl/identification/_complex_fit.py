@@ -46,6 +46,7 @@ from sdctrl.identification._residues import (
 )
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
 from sdctrl.identification._selection import AutoSelection
+from sdctrl.identification._variance import statistics_or_none
 
 __all__ = ["IdentificationWarning", "identify"]
 
@@ -385,7 +386,8 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=
             raise ValueError("frf.H: the residues of data this large overflow (largest "
                              f"|H| = 2^{e}); rescale the data")
     info["warnings"] = messages
-    return ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
-                            cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
-                            actuators=data.actuators, collocated=data.collocated, band=fband,
-                            info=info)
+    cm = ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
+                          cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
+                          actuators=data.actuators, collocated=data.collocated, band=fband,
+                          info=info)
+    return cm.replace(statistics=statistics_or_none(cm, data))

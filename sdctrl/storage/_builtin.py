@@ -42,6 +42,27 @@ def _build_uncertain(model, dGamma, dOmega, db, dc, params=()):
     return UncertainModel(model, dGamma, dOmega, db, dc, params)
 
 
+def _build_fit_stats(S, A_inv, M, K, V, model="complex", asymptotic=(True, True),
+                     noise="residual"):
+    """FitStatistics from stored fields, shapes and options checked (files may be hostile)."""
+    from sdctrl.identification._pole_statistics import FitStatistics
+
+    arrays = {"S": S, "A_inv": A_inv, "M": M, "K": K, "V": V}
+    if not all(isinstance(a, np.ndarray) and np.all(np.isfinite(a)) for a in arrays.values()):
+        raise ValueError("FitStatistics arrays must be finite arrays")
+    n2, (m, q) = S.shape[0], V.shape[:2]
+    shapes = {"S": (n2, n2), "A_inv": (n2, n2), "M": (m, q, n2), "K": (m, q, n2),
+              "V": (m, q, q)}
+    for k, a in arrays.items():
+        if a.shape != shapes[k]:
+            raise ValueError(f"FitStatistics {k} must have shape {shapes[k]}, got {a.shape}")
+    if model not in ("complex", "real") or noise not in ("coherence", "residual") or \
+            not (isinstance(asymptotic, tuple) and len(asymptotic) == 2
+                 and all(isinstance(a, bool) for a in asymptotic)):
+        raise ValueError("malformed FitStatistics options")
+    return FitStatistics(S, A_inv, M, K, V, model, asymptotic, noise)
+
+
 def _build_robust(**values):
     from sdctrl.robust._stability import RobustResult
 
@@ -59,6 +80,8 @@ register_attrs("FRF", "sdctrl.data._frf:FRF",
                 "units"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"})
+register_attrs("FitStatistics", "sdctrl.identification._pole_statistics:FitStatistics",
+               kinds={k: "f" for k in ("S", "A_inv", "M", "K", "V")}, build=_build_fit_stats)
 register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL)
 register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL)
 register_attrs("FEModel", "sdctrl.fe:FEModel",
