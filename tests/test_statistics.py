@@ -147,3 +147,125 @@ def test_statistics_absent_saved_and_residue_parts(tmp_path):
     back = sd.load(path)
     assert np.array_equal(back.frequency_std, cm.frequency_std)
     assert np.array_equal(back.residue_std(), total)
+
+
+# --------------------------------------------------------------------------------------
+# normal-mode statistics and uncertain models from the data (3.4, 5.2.3)
+# --------------------------------------------------------------------------------------
+def chain_normal_modes(M, K, C, sensors, actuators):
+    """The full (untruncated) normal-mode model of the chain: Omega, Gamma, cphi, phib."""
+    import scipy.linalg as sla
+
+    w2, phi = sla.eigh(K, M)
+    return np.diag(w2), phi.T @ C @ phi, phi[list(sensors)], phi[list(actuators)].T
+
+
+def aligned(nm, cphi_true):
+    """Omega, Gamma, cphi, phib of ``nm`` with mode signs of the truth."""
+    d = np.sign(np.sum(nm.cphi * cphi_true, axis=0))
+    return (np.asarray(nm.Omega), d[:, None] * nm.Gamma * d, nm.cphi * d,
+            d[:, None] * nm.phib)
+
+
+@pytest.fixture(scope="module")
+def chain_tests():
+    """30 noisy tests (2%) of the chain, 4 sensors x 2 collocated shakers, identified and
+    transformed to normal modes, with the exact normal-mode model."""
+    M, K, C = chain_matrices()
+    lam = chain_poles(M, K, C)
+    freq = np.linspace(2.0, 40.0, 300)
+    H0 = chain_frf(M, K, C, freq, actuators=(0, 3))
+    truth = chain_normal_modes(M, K, C, range(4), (0, 3))
+    rng = np.random.default_rng(11)
+    labels = dict(sensors=LABELS, actuators=(LABELS[0], LABELS[3]),
+                  collocated=[(0, 0), (3, 1)])
+    models = []
+    for _ in range(30):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cm = sd.identify(noisy(freq, H0, 0.02, rng, **labels), poles=lam, progress=False)
+            models.append(sd.normal_modes(cm))
+    return models, truth
+
+
+def test_normal_mode_std_calibrated(chain_tests):
+    models, truth = chain_tests
+    est = np.array([np.concatenate([a.ravel() for a in aligned(m, truth[2])]) for m in models])
+    std = np.array([np.concatenate([m.std[k].ravel() for k in ("Omega", "Gamma", "cphi",
+                                                                 "phib")]) for m in models])
+    assert np.all(np.isfinite(std))
+    # Omega is diagonal by construction: its off-diagonal entries are certain
+    off = ~np.eye(4, dtype=bool).ravel()
+    assert np.all(std[:, :16][:, off] == 0)
+    det = np.median(std, axis=0) > 0
+    ratio = np.std(est, axis=0, ddof=1)[det] / np.median(std, axis=0)[det]
+    assert 0.75 < np.median(ratio) < 1.33 and np.all((ratio > 0.5) & (ratio < 2.0)), ratio
+
+
+def test_uncertain_from_one_identified_model_covers_the_truth(chain_tests):
+    models, truth = chain_tests
+    inside = {k: [] for k in ("Omega", "Gamma", "cphi", "phib")}
+    for m in models:
+        um = sd.uncertain_from_data(m, level=0.95)
+        assert "identification statistics" in um.source and um.source in repr(um)
+        Om, Ga, cp, pb = aligned(um.model, truth[2])
+        for k, est, true, bound in (("Omega", Om, truth[0], um.dOmega),
+                                    ("Gamma", Ga, truth[1], um.dGamma),
+                                    ("cphi", cp, truth[2], um.dc), ("phib", pb, truth[3], um.db)):
+            sel = bound > 0
+            inside[k].append(np.abs(est - true)[sel] <= bound[sel])
+    rates = {k: np.mean(np.concatenate(v)) for k, v in inside.items()}
+    assert all(0.85 <= r <= 1.0 for r in rates.values()), rates
+    # a lower level gives tighter bounds that cover less often (level is honoured)
+    um50 = sd.uncertain_from_data(models[0], level=0.5)
+    um95 = sd.uncertain_from_data(models[0], level=0.95)
+    assert np.allclose(um95.dGamma, um50.dGamma * 1.959964 / 0.674490, rtol=1e-5)
+
+
+def test_uncertain_from_several_tests(chain_tests, tmp_path):
+    models, truth = chain_tests
+    hits, n = 0, 0
+    for g in range(6):
+        group = models[5 * g:5 * g + 5]
+        um = sd.uncertain_from_data(group, level=0.95)
+        assert "5 tests" in um.source
+        # the larger of the spread and the statistics: never below the statistical bound
+        single = sd.uncertain_from_data(group[0], level=0.95)
+        assert np.all(um.dGamma >= 0.5 * single.dGamma)
+        Om, Ga, cp, pb = aligned(um.model, truth[2])
+        for est, true, bound in ((Ga, truth[1], um.dGamma), (cp, truth[2], um.dc),
+                                 (pb, truth[3], um.db)):
+            sel = bound > 0
+            hits += int(np.sum(np.abs(est - true)[sel] <= bound[sel]))
+            n += int(np.sum(sel))
+    assert hits / n >= 0.85
+    path = tmp_path / "um.npz"
+    sd.save(um, path)
+    back = sd.load(path)
+    assert back.source == um.source and np.array_equal(back.dGamma, um.dGamma)
+    path = tmp_path / "nm.npz"
+    sd.save(models[0], path)
+    assert all(np.array_equal(sd.load(path).std[k], models[0].std[k]) for k in models[0].std)
+
+
+def test_models_without_statistics():
+    nm = sd.NormalModeModel(np.diag([100.0, 400.0]), np.diag([0.2, 0.4]), np.eye(2), np.eye(2))
+    assert nm.std is None
+    with pytest.raises(ValueError, match="statistics"):
+        sd.uncertain_from_data(nm)
+    with pytest.raises(ValueError, match="level"):
+        sd.uncertain_from_data([nm, nm], level=1.5)
+    with pytest.raises(TypeError, match="NormalModeModel"):
+        sd.uncertain_from_data("nm")
+    with pytest.raises(ValueError, match="std"):
+        nm.replace(std={"Omega": np.ones((2, 2))})
+    # new parameters drop statistics that no longer describe them
+    std = {k: np.ones_like(getattr(nm, k)) for k in ("Omega", "Gamma", "cphi", "phib")}
+    with_std = nm.replace(std=std)
+    assert with_std.replace(E=np.zeros((2, 2))).std is not None
+    assert with_std.replace(Omega=np.diag([101.0, 400.0])).std is None
+    # normal modes of a complex-mode model built by hand have no statistics either
+    lam = np.array([-0.5 + 60j, -0.8 + 90j])
+    phi = np.array([[1.0, 0.5], [0.4, -1.0]])
+    R = np.einsum("ij,kj->jik", phi, phi) / (2j * lam.imag)[:, None, None]
+    assert sd.normal_modes(sd.ComplexModeModel(lam, R, collocated=[(0, 0), (1, 1)])).std is None

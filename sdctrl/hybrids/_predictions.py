@@ -70,6 +70,8 @@ class HybridModel(NormalModeModel):
         Cut-off (rad/s) of the correction mode realising ``E`` in velocity/acceleration.
     F : array_like, shape (ns, na), optional
         Low-frequency (residual mass) correction ``F/s^2`` of the displacement response.
+    std : dict, optional
+        One standard deviation of each entry of ``Omega``, ``Gamma``, ``cphi``, ``phib``.
     fe : FEModel, optional
         The FE model the shapes live on (set by :func:`sdctrl.hybrid`); with ``sensor_c``
         and ``actuator_b`` it enables the static correction of predictions.
@@ -122,6 +124,7 @@ class HybridModel(NormalModeModel):
             signals are unknown (no static correction then).
         """
         kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        kw["std"] = None if changes.keys() & {"Omega", "Gamma", "cphi", "phib"} else self.std
         kw.update(changes)
         for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1)):
             old, new = kw[name], changes.get(key)

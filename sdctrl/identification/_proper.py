@@ -23,6 +23,7 @@ import scipy.linalg as sla
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_collocated
 from sdctrl.identification._complex_modes import scale_residues
+from sdctrl.identification._normal_statistics import with_std
 
 __all__ = ["normal_modes", "proper_modes", "scaled_modes", "transformation"]
 
@@ -237,7 +238,8 @@ def _transform(cm, sel, pairs, tol, maxiter):
     info["poles_left_out_hz"] = np.asarray(cm.frequency)[left]
     info["in_band"] = _mode_in_band(w2, lam, np.asarray(cm.in_band, bool)[sel])
     info["band"] = None if cm.band is None else tuple(float(v) for v in cm.band)
-    return nm.replace(info={**info, "source": "normal_modes"})
+    nm = nm.replace(info={**info, "source": "normal_modes"})
+    return with_std(nm, cm, lambda c: _transform(c, sel, pairs, tol, maxiter))   # (3.4)
 
 
 def _mode_in_band(w2, lam, in_band) -> np.ndarray:

@@ -18,7 +18,7 @@ in :mod:`sdctrl.modal._operations`; reanalysis of changes given on physical DOFs
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from sdctrl._lib.validate import (
     check_freq,
     check_info,
     check_labels,
+    check_modal_std,
     check_quantity,
     check_scalar,
     check_square,
@@ -76,6 +77,9 @@ class NormalModeModel:
         Low-frequency (residual mass) correction of truncated low-frequency modes: the
         displacement response carries ``F/s^2`` (2.23); ``to_statespace`` realises it
         exactly with one rigid-body correction mode per actuator (2.24).
+    std : dict, optional
+        One standard deviation of each entry of ``"Omega"``, ``"Gamma"``, ``"cphi"``,
+        ``"phib"`` (arrays of their shapes) for an identified model; None without statistics.
     """
 
     Omega: np.ndarray
@@ -90,6 +94,7 @@ class NormalModeModel:
     omega_c: float | None = None
     info: dict = field(default_factory=dict, compare=False, repr=False)
     F: np.ndarray | None = None
+    std: dict | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         Omega = check_square(self.Omega, "Omega")
@@ -106,12 +111,8 @@ class NormalModeModel:
             scale = max(np.abs(X).max(), 1e-300)
             if np.abs(X - X.T).max() > 1e-8 * scale:
                 raise ValueError(f"{name} must be symmetric")
-        E = None
-        if self.E is not None:
-            E = as_array(self.E, "E", shape=(ns, na))
-        F = None
-        if self.F is not None:
-            F = as_array(self.F, "F", shape=(ns, na))
+        E = None if self.E is None else as_array(self.E, "E", shape=(ns, na))
+        F = None if self.F is None else as_array(self.F, "F", shape=(ns, na))
         shapes = None
         if self.shapes is not None:
             shapes = as_array(self.shapes, "shapes", ndim=2)
@@ -136,6 +137,7 @@ class NormalModeModel:
         sets(self, "sensors", check_labels(self.sensors, ns, "sensors", "s"))
         sets(self, "actuators", check_labels(self.actuators, na, "actuators", "a"))
         sets(self, "info", check_info(self.info))
+        sets(self, "std", check_modal_std(self.std, n, ns, na))
 
     # --- display ------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -188,9 +190,9 @@ class NormalModeModel:
         return poles(self)
 
     def replace(self, **changes) -> NormalModeModel:
-        """Copy with some fields changed (validated again)."""
-        kw = {k: getattr(self, k) for k in ("Omega", "Gamma", "cphi", "phib", "E", "sensors",
-                                            "actuators", "shapes", "dofs", "omega_c", "info", "F")}
+        """Copy with some fields changed (validated again; ``std`` dropped with new parameters)."""
+        kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        kw["std"] = None if changes.keys() & {"Omega", "Gamma", "cphi", "phib"} else self.std
         kw.update(changes)
         return NormalModeModel(**kw)
 

@@ -12,7 +12,7 @@ from sdctrl.storage._values import short
 __all__: list[str] = []
 
 
-def _build_uncertain(model, dGamma, dOmega, db, dc, params=()):
+def _build_uncertain(model, dGamma, dOmega, db, dc, params=(), source=""):
     """UncertainModel from stored fields, checked as :func:`sdctrl.robust._uncertainty.uncertain` builds
     them (the dataclass itself does not validate)."""
     from sdctrl.modal._normal_model import NormalModeModel
@@ -39,7 +39,9 @@ def _build_uncertain(model, dGamma, dOmega, db, dc, params=()):
                         for i, lim in zip(p[1][1:], limits[p[1][0]]))
         if not ok:
             raise ValueError(f"malformed uncertain parameter {short(p)}")
-    return UncertainModel(model, dGamma, dOmega, db, dc, params)
+    if not isinstance(source, str):
+        raise TypeError("source must be a string")
+    return UncertainModel(model, dGamma, dOmega, db, dc, params, source)
 
 
 def _build_fit_stats(S, A_inv, M, K, V, model="complex", asymptotic=(True, True),
