@@ -132,9 +132,13 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     Pinv = sla.solve_triangular(lsq.Rr, lsq.Q.T, check_finite=False) / lsq.scale[:, None]
     H = data.H.reshape(nf, m)
     C = Pinv @ stack(H)                                               # (q, m)
-    D = stack(_model_derivative(lam, C, s, k, model).reshape(nf, -1)).reshape(2 * nf, 2 * n, m)
-    B = D - np.einsum("ip,pam->iam", lsq.Q, np.einsum("ip,iam->pam", lsq.Q, D))
-    A = np.einsum("iam,ibm->ab", B, B)
+    npp = 2 if model == "complex" else 1
+    G = stack(_basis_derivative(lam, s, k, model).reshape(nf, -1))    # (2nf, 2n npp)
+    Gp = G - lsq.Q @ (lsq.Q.T @ G)                                   # P_perp dPhi/dtheta
+    Cp = C[(np.arange(2 * n) // 2)[:, None] * npp + np.arange(npp)]  # (2n, npp, m)
+    B = np.einsum("iau,aum->iam", Gp.reshape(2 * nf, 2 * n, npp), Cp)   # P_perp D_c
+    A = np.einsum("aubv,aubv->ab", (Gp.T @ Gp).reshape(2 * n, npp, 2 * n, npp),
+                  np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
     if poles_fixed:
         A_inv = np.zeros_like(A)
     elif np.linalg.cond(A) > 1e14:
@@ -149,28 +153,28 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
         r = stack(H) - stack(Phi) @ C
         W2 = _residual_variance(r, stack(Phi) @ C, lsq.Q, B, A_inv)
         noise = "residual"
-    S = A_inv @ np.einsum("iam,im,ibm->ab", B, W2, B, optimize=True) @ A_inv
-    M = np.einsum("pi,iam->mpa", Pinv, D)
-    K = np.einsum("pi,im,iam->mpa", Pinv, W2, B, optimize=True)
-    V = np.einsum("pi,im,ri->mpr", Pinv, W2, Pinv, optimize=True)
+    WB = B * W2[:, None, :]
+    S = A_inv @ np.tensordot(WB, B, axes=([0, 2], [0, 2])) @ A_inv
+    M = np.einsum("pau,aum->mpa", (Pinv @ G).reshape(q, 2 * n, npp), Cp)   # Phi^+ D_c
+    K = (Pinv @ WB.reshape(2 * nf, -1)).reshape(q, 2 * n, m).transpose(2, 0, 1)
+    V = (Pinv[None] * W2.T[:, None, :]) @ Pinv.T
     return FitStatistics(S=0.5 * (S + S.T), A_inv=A_inv, M=M, K=K, V=V, model=model,
                          asymptotic=tuple(bool(a) for a in asymptotic), noise=noise)
 
 
-def _model_derivative(lam, C, s, k, model):
-    """``d H_c / d(Re l_j, Im l_j)`` at fixed coefficients, (nf, 2n, m) complex."""
-    n = lam.size
+def _basis_derivative(lam, s, k, model):
+    """Derivatives of each pole's basis columns w.r.t. ``(Re l_j, Im l_j)``, complex
+    (nf, 2n, npp): ``d H_c / d theta_a = G[:, a] @ C[rows of pole a // 2, c]``."""
     a = 1.0 / (s[:, None] - lam[None, :])                  # 1/(s - l)
     b = 1.0 / (s[:, None] - lam.conj()[None, :])           # 1/(s - l^*)
-    if model == "complex":
-        R = C[0:2 * n:2] + 1j * C[1:2 * n:2]               # (n, m)
-        d_re = (a**2)[:, :, None] * R[None] + (b**2)[:, :, None] * R.conj()[None]
-        d_im = 1j * ((a**2)[:, :, None] * R[None] - (b**2)[:, :, None] * R.conj()[None])
-    else:
-        T = C[:n][None]                                    # (1, n, m)
-        d_re = ((a**2 * b + a * b**2)[:, :, None]) * T
-        d_im = 1j * ((a**2 * b - a * b**2)[:, :, None]) * T
-    out = np.stack([d_re, d_im], axis=2).reshape(s.size, 2 * n, -1)
+    if model == "complex":                                 # g1 = a + b, g2 = i (a - b)
+        plus, minus = a**2 + b**2, a**2 - b**2
+        d_re = np.stack([plus, 1j * minus], axis=-1)
+        d_im = np.stack([1j * minus, -plus], axis=-1)
+    else:                                                  # g = a b
+        d_re = (a**2 * b + a * b**2)[..., None]
+        d_im = 1j * (a**2 * b - a * b**2)[..., None]
+    out = np.stack([d_re, d_im], axis=2).reshape(s.size, 2 * lam.size, -1)
     return out * (s**k)[:, None, None] if k else out
 
 
@@ -181,7 +185,8 @@ def _residual_variance(r, Yfit, Q, B, A_inv):
     ``B`` (2nf, 2n, m) the poles' projected Jacobian, ``A_inv`` its Gauss-Newton inverse.
     """
     nf = r.shape[0] // 2
-    lev = np.sum(Q * Q, axis=1)[:, None] + np.einsum("iam,ab,ibm->im", B, A_inv, B, optimize=True)
+    BA = np.tensordot(B, A_inv, axes=([1], [0]))                       # (2nf, m, 2n)
+    lev = np.sum(Q * Q, axis=1)[:, None] + np.sum(BA * B.transpose(0, 2, 1), axis=2)
     lev = 0.5 * (lev[:nf] + lev[nf:])                      # per line and channel
     e = (r[:nf] ** 2 + r[nf:] ** 2) / np.maximum(1.0 - lev, 0.05)
     shape = Yfit[:nf] ** 2 + Yfit[nf:] ** 2

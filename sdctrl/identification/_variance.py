@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.threads import single_thread
 from sdctrl.identification._pole_statistics import coefficient_variance, fit_statistics
 
 __all__ = ["model_statistics", "residue_std", "statistics_or_none"]
@@ -101,7 +102,8 @@ def residue_std(cm, frf=None, n_averages: int = 1, direct_only: bool = False) ->
             raise ValueError(f"frf must have {cm.ns} sensors x {cm.na} actuators like the "
                              f"model, got {frf.H.shape[1:]}")
         data = frf.band(*cm.band) if cm.band is not None else frf
-        stats = model_statistics(cm, data, n_averages)
+        with single_thread():                     # small dense kernels, as identify
+            stats = model_statistics(cm, data, n_averages)
     n = cm.n
     if stats is None:
         return np.full(cm.residues.shape, np.nan)

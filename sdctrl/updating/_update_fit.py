@@ -78,7 +78,8 @@ class UpdateResult:
         ``basis`` (sizes), ``time`` (s), ``strategy``.
     std : dict
         Parameter name -> one standard deviation of the fitted ``p`` under the test's noise
-        (Cramer-Rao bound of the logLS fit at the optimum, :mod:`~sdctrl.updating._update_statistics`).
+        (Cramer-Rao bound of the logLS fit at the optimum,
+        :mod:`~sdctrl.updating._update_statistics`).
     """
 
     values: dict
