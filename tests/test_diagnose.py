@@ -340,7 +340,7 @@ def test_command_line(tmp_path):
     proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True,
                           timeout=600, check=False)
     assert proc.returncode == 0, proc.stderr
-    row = re.search(r"\| 1 \| mass_change \| N20 \| dm = (\S+) kg", proc.stdout)
+    row = re.search(r"\| 1 \| mass_change \| N20 \| dm = (\S+)(?: \+- \S+)? kg", proc.stdout)
     assert row and float(row.group(1)) == pytest.approx(0.5, rel=0.02)
     text = (tmp_path / "out.md").read_text()
     assert text.startswith("# Diagnosis") and "mass_change" in text
