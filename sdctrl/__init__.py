@@ -50,6 +50,7 @@ _EXPORTS = {
     "UncertainModel": "sdctrl.robust",
     "robust_stability": "sdctrl.robust",
     "RobustResult": "sdctrl.robust",
+    "uncertain_from_data": "sdctrl.robust",
     "worst_case_gain": "sdctrl.robust",
     # closed loops
     "feedback": "sdctrl.closedloop",

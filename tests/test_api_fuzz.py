@@ -119,6 +119,10 @@ NM_FE = FE.normal_mode_model(B_FE, B_FE.T, 3)
 W1 = 2 * np.pi * 0.5
 NM1 = sd.NormalModeModel([[W1**2]], [[0.02 * W1]], [[1.0]], [[1.0]])
 UM1 = NM1.uncertain(dGamma=[[0.05 * W1]])          # one block: mu without an LMI (fast)
+#: an identified-like model with statistics, and a second test of it
+NMS = NM1.replace(std={"Omega": [[0.01 * W1**2]], "Gamma": [[0.002 * W1]], "cphi": [[0.01]],
+                       "phib": [[0.01]]})
+NMS2 = NMS.replace(Omega=[[1.01 * W1**2]], std=NMS.std)
 K1 = control.ss([], [], [], [[0.5]], inputs=["s0"], outputs=["a0_u"])
 SS = NM.to_statespace()
 SS_NAN = control.ss(SS.A, SS.B, SS.C, np.full(SS.D.shape, np.nan))
@@ -383,7 +387,8 @@ ENTRIES = [
     Entry("ComplexModeModel.residue_std", lambda a: _cm(a).residue_std(sd.FRF(
         FREQ, H, coherence=a.pop("coherence")), **a),
           _plus(cm_args, coherence=np.full(H.shape, 0.9), n_averages=10),
-          {"residues": CPLX, "coherence": array().but(negative=REFUSE, huge=REFUSE),
+          {"residues": CPLX, "coherence": array().but(negative=REFUSE, huge=REFUSE,
+                                                      none=OK),   # no coherence: residual
            "n_averages": integer(1)}),
     # --- identification (chapter III) -------------------------------------------------
     Entry("initial_poles", lambda a: sd.initial_poles(_frf(a), **a),
@@ -543,6 +548,12 @@ ENTRIES = [
                    "max_vertices": 4},
           {"freq": FREQ_K, "n_samples": integer(0), "seed": integer(0, optional=True),
            "max_vertices": integer(0)}),
+    Entry("uncertain_from_data", _call(sd.uncertain_from_data),
+          lambda: {"models": NMS, "level": 0.95},
+          {"models": obj_kind(("no statistics", lambda: NM1, REFUSE),
+                              ("two tests", lambda: [NMS, NMS2], OK),
+                              ("one test in a list", lambda: [NMS], OK)),
+           "level": number()}),
     Entry("robust_stability", _call(sd.robust_stability),
           lambda: {"um": UM1, "controller": K1, "freq": np.linspace(0.2, 1.0, 4), "eps": 0.01,
                    "n_directions": 2, "seed": 0, "rtol": 0.005, "executor": None},

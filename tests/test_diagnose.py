@@ -184,6 +184,15 @@ def test_effect_found_with_one_percent_noise(name):
     # the noise level is recognised: the error left is about the noise's (|r|^2 ~ 1e-4)
     assert d.noise == pytest.approx(1e-4, rel=0.3)
     assert d.error_after < 1.5e-4
+    # every fitted size carries its standard deviation, small at 1% noise on 150 x 31 x 6
+    # points, and the report shows it ("dm = 0.50005 +- 5e-05 kg")
+    top = d.effects[0]
+    got, _ = _size(top, *case[::2])
+    key = {"added_damper": "c", "mass_change": "dm", "stiffness_change": "relative",
+           "delay": "tau", "missing_mode": "mass"}[case[0]]
+    assert set(top.std) == set(top.parameters)
+    assert 0 < top.std[key] < 0.01 * abs(got)
+    assert re.search(rf"{key} = \S+ \+- \S+", d.report())
 
 
 @pytest.mark.parametrize("case", [
@@ -332,7 +341,7 @@ def test_command_line(tmp_path):
     proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True,
                           timeout=600, check=False)
     assert proc.returncode == 0, proc.stderr
-    row = re.search(r"\| 1 \| mass_change \| N20 \| dm = (\S+) kg", proc.stdout)
+    row = re.search(r"\| 1 \| mass_change \| N20 \| dm = (\S+)(?: \+- \S+)? kg", proc.stdout)
     assert row and float(row.group(1)) == pytest.approx(0.5, rel=0.02)
     text = (tmp_path / "out.md").read_text()
     assert text.startswith("# Diagnosis") and "mass_change" in text
@@ -347,6 +356,7 @@ def test_effects_saved_and_loaded(tmp_path):
     back = sd.load(sd.save(e, tmp_path / "effect"))
     assert isinstance(back, sd.Effect) and back.kind == e.kind and back.location == e.location
     assert back.parameters == e.parameters
+    assert back.std == e.std and set(e.std) == set(e.parameters)
     assert (back.error_before, back.error_after) == (e.error_before, e.error_after)
     with pytest.raises(TypeError, match="parameters"):
         sd.Effect("delay", None, {"tau": "1 ms"}, 1.0, 0.5)

@@ -484,8 +484,11 @@ def test_residue_std_matches_monte_carlo():
     assert pred.shape == R.shape
     ratio = np.median(mc / pred)
     assert 0.9 < ratio < 1.1
-    with pytest.raises(ValueError, match="coherence"):
-        cm.residue_std(sd.FRF(freq, H0))
+    # poles given, not estimated: only the direct part, as stored by identify
+    assert np.allclose(cm.residue_std(), pred)
+    assert np.allclose(cm.residue_std(sd.FRF(freq, H0, coherence=coh), direct_only=True), pred)
+    # without coherence the noise comes from the residual: exact data, no spread
+    assert np.all(cm.residue_std(sd.FRF(freq, H0)) < 1e-6 * pred)
 
 
 # --------------------------------------------------------------------------------------

@@ -216,6 +216,30 @@ def check_info(info, name: str = "info") -> dict:
     return dict(info)
 
 
+def check_modal_std(std, n: int, ns: int, na: int, name: str = "std") -> dict | None:
+    """A read-only copy of the standard deviations of a normal-mode model's parameters.
+
+    ``std`` maps ``"Omega"``, ``"Gamma"`` (n, n), ``"cphi"`` (ns, n), ``"phib"`` (n, na) to
+    arrays of non-negative entries (NaN: undetermined); None passes (no statistics).
+    """
+    from collections.abc import Mapping
+
+    shapes = {"Omega": (n, n), "Gamma": (n, n), "cphi": (ns, n), "phib": (n, na)}
+    if std is None:
+        return None
+    if not isinstance(std, Mapping) or set(std) != set(shapes):
+        raise ValueError(f"{name} must be None or a dict with keys {sorted(shapes)}, got "
+                         f"{std!r:.80}")
+    out = {}
+    for k, shape in shapes.items():
+        a = np.array(std[k], dtype=float)
+        if a.shape != tuple(shape) or np.any(np.isinf(a)) or np.any(a < 0):
+            raise ValueError(f"{name}[{k!r}] must be non-negative standard deviations of "
+                             f"shape {tuple(shape)} (NaN: undetermined), got shape {a.shape}")
+        out[k] = readonly(a)
+    return out
+
+
 def check_label(x, name: str) -> str:
     """A non-empty string label."""
     if not isinstance(x, str | np.str_):

@@ -17,6 +17,7 @@ from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
 from sdctrl.diagnosis._apply import DelayedModel, apply_effect
 from sdctrl.diagnosis._candidates import candidate_groups
+from sdctrl.diagnosis._effect_statistics import effect_std
 from sdctrl.diagnosis._global_effects import (
     fit_delay,
     fit_free_mode,
@@ -288,7 +289,8 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
                           "stopping", RuntimeWarning, stacklevel=2)
             steps[-1]["accepted"] = False
             break
-        effects.append(Effect(best["kind"], best["location"], best["parameters"], J, J_new))
+        std = effect_std(best, current, placed, placed0, sigma2)
+        effects.append(Effect(best["kind"], best["location"], best["parameters"], J, J_new, std))
         current, J = new, J_new
         if noise is None:
             sigma2 = min(sigma2, noise_level(complex_residual(H, placed0.Hd)))

@@ -56,28 +56,34 @@ def format_location(loc) -> str:
     return str(loc)
 
 
-def format_parameters(params) -> str:
-    """``name = value unit`` pairs of fitted sizes (arrays summarised by their norm).
+def format_parameters(params, std=None) -> str:
+    """``name = value +- std unit`` of fitted sizes (arrays summarised by their norm).
 
     Parameters
     ----------
     params : dict
         Fitted sizes.
+    std : dict, optional
+        Their standard deviations (shown as ``+- s`` when finite).
 
     Returns
     -------
     str
     """
     out = []
+    std = std or {}
     for k, v in params.items():
+        s = std.get(k)
+        pm = s is not None and np.ndim(s) == 0 and np.isfinite(s)
         if isinstance(v, np.ndarray):
             out.append(f"{k}: {v.shape[0]}x{v.shape[1] if v.ndim > 1 else 1} matrix "
                        f"(max {np.abs(v).max():.3g})")
         elif k == "relative":
-            out.append(f"relative = {100 * v:+.3g}%")
+            out.append(f"relative = {100 * v:+.3g}%" + (f" +- {100 * s:.2g}%" if pm else ""))
         else:
             unit = _UNITS.get(k, "rad/s" if k.startswith("Gamma_") else "")
-            out.append(f"{k} = {v:.5g}{' ' + unit if unit else ''}")
+            out.append(f"{k} = {v:.5g}" + (f" +- {s:.2g}" if pm else "")
+                       + (f" {unit}" if unit else ""))
     return ", ".join(out)
 
 
@@ -105,6 +111,10 @@ class Effect:
         Complex logLS cost (3.12) of the model before the effect.
     error_after : float
         Same cost with the effect.
+    std : dict, optional
+        Like ``parameters``: one standard deviation of each fitted size under the noise of
+        the test (Cramer-Rao bound of the fit, :mod:`sdctrl.diagnosis._effect_statistics`);
+        empty when unknown.
     """
 
     kind: str
@@ -112,6 +122,7 @@ class Effect:
     parameters: dict
     error_before: float
     error_after: float
+    std: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if self.kind not in EFFECT_KINDS:
@@ -131,12 +142,17 @@ class Effect:
                 v = _number(v, f"parameters[{k!r}]")
             params[k] = v
         sets(self, "parameters", params)
+        if not isinstance(self.std, dict) or not set(self.std) <= set(params):
+            raise TypeError("std must be a dict of standard deviations of the parameters")
+        sets(self, "std", {k: (np.array(v, float) if isinstance(v, np.ndarray)
+                               else _number(v, f"std[{k!r}]")) for k, v in self.std.items()})
         for name in ("error_before", "error_after"):
             sets(self, name, _number(getattr(self, name), name))
 
     def __repr__(self) -> str:
         return (f"Effect({self.kind!r}, {format_location(self.location)}, "
-                f"{format_parameters(self.parameters)}, error {self.error_before:.3g} -> "
+                f"{format_parameters(self.parameters, self.std)}, "
+                f"error {self.error_before:.3g} -> "
                 f"{self.error_after:.3g})")
 
     @property
@@ -238,7 +254,7 @@ class Diagnosis:
         -------
         str
         """
-        rows = [(i + 1, e.kind, format_location(e.location), format_parameters(e.parameters),
+        rows = [(i + 1, e.kind, format_location(e.location), format_parameters(e.parameters, e.std),
                  f"{e.error_before:.4g}", f"{e.error_after:.4g}", f"{100 * e.reduction:.3g}%")
                 for i, e in enumerate(self.effects)]
         return markdown_table(["#", "effect", "location", "fitted parameters",

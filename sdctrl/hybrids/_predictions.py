@@ -70,6 +70,8 @@ class HybridModel(NormalModeModel):
         FE DOF labels of the rows of ``shapes``.
     omega_c, F, properness, transformation, n_static
         As for :class:`~sdctrl.NormalModeModel` (``n_static``: the modes of kind ``"static"``).
+    std : dict, optional
+        One standard deviation of each entry of ``Omega``, ``Gamma``, ``cphi``, ``phib``.
     fe : FEModel, optional
         The FE model the shapes live on (set by :func:`sdctrl.hybrid`); with ``sensor_c``
         and ``actuator_b`` it enables the static correction of predictions.
@@ -141,6 +143,7 @@ class HybridModel(NormalModeModel):
             ``Omega`` changes the number of modes without giving it.
         """
         kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        kw["std"] = None if changes.keys() & {"Omega", "Gamma", "cphi", "phib"} else self.std
         kw.update(changes)
         for name, key, axis in (("sensor_c", "cphi", 0), ("actuator_b", "phib", 1),
                                 ("kind", "Omega", 0)):

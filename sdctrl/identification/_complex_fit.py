@@ -48,6 +48,7 @@ from sdctrl.identification._residues import (
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
 from sdctrl.identification._selection import AutoSelection
 from sdctrl.identification._quality import fit_quality
+from sdctrl.identification._variance import statistics_or_none
 
 __all__ = ["IdentificationWarning", "identify"]
 
@@ -433,10 +434,11 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=
         if not (np.all(np.isfinite(R)) and np.all(np.isfinite(E)) and np.all(np.isfinite(F))):
             raise ValueError("frf.H: the residues of data this large overflow (largest "
                              f"|H| = 2^{e}); rescale the data")
-    return ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
-                            cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
-                            actuators=data.actuators, collocated=data.collocated, band=fband,
-                            **_records(info, messages))
+    cm = ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
+                          cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
+                          actuators=data.actuators, collocated=data.collocated, band=fband,
+                          **_records(info, messages))
+    return cm.replace(statistics=statistics_or_none(cm, data))           # (3.56)-(3.59)
 
 
 def _records(info: dict, messages: list) -> dict:

@@ -26,6 +26,7 @@ from sdctrl._lib.validate import (
     readonly,
 )
 from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
+from sdctrl.identification._pole_statistics import FitStatistics, pole_std
 from sdctrl.identification._realisation import to_statespace
 
 __all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
@@ -72,6 +73,9 @@ class ComplexModeModel:
         ``1/tau`` (rad/s) to every decay rate, :func:`~sdctrl.identify` removed it
         (``poles.real += 1/tau``), so ``poles``, ``frequency`` and ``damping`` are those of the
         structure; None when no correction was applied.
+    statistics : FitStatistics, optional
+        Covariance of the poles and residues under the test's noise (3.56)-(3.59), set by
+        :func:`~sdctrl.identify`; None for a model without statistics.
     """
 
     poles: np.ndarray
@@ -89,6 +93,7 @@ class ComplexModeModel:
     warnings: tuple[str, ...] = field(default=(), repr=False)
     search: SearchDiagnostics | None = field(default=None, repr=False)
     exponential_tau: float | None = None
+    statistics: FitStatistics | None = field(default=None, repr=False)
 
     def __post_init__(self):
         lam = as_array(self.poles, "poles", ndim=1, dtype=complex)
@@ -123,6 +128,10 @@ class ComplexModeModel:
         if self.exponential_tau is not None:
             sets(self, "exponential_tau", check_scalar(self.exponential_tau, "exponential_tau",
                                                        positive=True))
+        if self.statistics is not None and (not isinstance(self.statistics, FitStatistics)
+                                            or self.statistics.n != n):
+            raise ValueError(f"statistics must be a FitStatistics of {n} poles or None, got "
+                             f"{self.statistics!r:.60}")
 
     # --- display --------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -165,12 +174,23 @@ class ComplexModeModel:
         """Damping ratios ``-Re(lambda) / |lambda|``."""
         return -self.poles.real / np.abs(self.poles)
 
+    @property
+    def frequency_std(self) -> np.ndarray:
+        """One standard deviation of each pole's frequency (Hz) under the test's noise
+        (3.56)-(3.59); NaN where the data do not determine it (or without statistics)."""
+        return pole_std(self.statistics, self.poles)[0]
+
+    @property
+    def damping_std(self) -> np.ndarray:
+        """One standard deviation of each pole's damping ratio (as :attr:`frequency_std`)."""
+        return pole_std(self.statistics, self.poles)[1]
+
     def replace(self, **changes) -> ComplexModeModel:
         """Copy with some fields changed (validated again)."""
         kw = {k: getattr(self, k) for k in ("poles", "residues", "E", "F", "in_band", "cost",
                                             "sensors", "actuators", "collocated", "band",
                                             "info", "stabilisation", "warnings", "search",
-                                            "exponential_tau")}
+                                            "exponential_tau", "statistics")}
         kw.update(changes)
         return ComplexModeModel(**kw)
 
@@ -313,24 +333,29 @@ class ComplexModeModel:
             return cpsi, psib, {"spread": spread, "alpha2": single, "pairs": pairs}
         return cpsi, psib
 
-    def residue_std(self, frf, n_averages: int = 1) -> np.ndarray:
-        """Standard deviation of the residues from the FRF coherence (3.58)-(3.60).
+    def residue_std(self, frf=None, n_averages: int = 1, direct_only: bool = False):
+        """Standard deviation of the residues, both parts of (3.58) (direct and through the
+        poles), from the coherence (3.59) or the fit residual.
 
         Parameters
         ----------
-        frf : FRF
-            The measured FRF the model was fitted to, with coherence.
+        frf : FRF, optional
+            The measured FRF the model was fitted to; default the statistics stored by
+            :func:`~sdctrl.identify`.
         n_averages : int
             Number of averages behind the coherence estimate (divides the variance).
+        direct_only : bool
+            Only the direct part of (3.58) (poles held fixed).
 
         Returns
         -------
         ndarray, shape (n, ns, na)
-            Standard deviation of each complex residue (direct part of 3.58).
+            Standard deviation of each complex residue (``sqrt(var Re + var Im)``); NaN
+            without statistics.
         """
         from sdctrl.identification._variance import residue_std
 
-        return residue_std(self, frf, n_averages)
+        return residue_std(self, frf, n_averages, direct_only)
 
     def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
         """Real state-space model in the 2x2-block modal form (3.26)-(3.33).

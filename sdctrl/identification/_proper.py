@@ -28,6 +28,7 @@ from sdctrl.identification._complex_modes import scale_residues
 from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
+from sdctrl.identification._normal_statistics import with_std
 
 __all__ = ["Properness", "normal_modes", "scaled_modes"]
 
@@ -292,7 +293,8 @@ def _transform(cm, sel, pairs, tol, maxiter):
         band=None if cm.band is None else tuple(float(v) for v in cm.band),
         poles_used=np.asarray(sel), poles_left_out=left,
         poles_left_out_hz=np.asarray(cm.frequency)[left])
-    return nm.replace(properness=record)
+    again = lambda c: _transform(c, sel, pairs, tol, maxiter)  # noqa: E731 -- std by (3.4)
+    return with_std(nm.replace(properness=record), cm, again)
 
 
 def _check_poles(lam, ns: int) -> None:

@@ -1,72 +1,116 @@
-"""Variance of the identified residues from the measured coherence (thesis 3.4.2).
+"""Variance of the identified residues (thesis 3.4.2), both parts of (3.58).
 
-The coherence ``kappa`` of an unbiased FRF estimate gives a diagonal covariance of the
-measured points, ``sigma_H^2 = |H|^2 (1 - kappa)`` (3.59).  For fixed poles the residues
-are linear in the data, ``R = Phi^+ H`` (3.17), so their covariance is
-``Sigma_R = Phi^+ Sigma_M Phi^+^T`` (3.60): the direct part of (3.58).  The indirect part,
-through errors of the poles, is not included (the thesis evaluates it case by case).
+For fixed poles the residues are linear in the data, ``R = Phi^+ H`` (3.17), so their
+covariance is ``Sigma_R = Phi^+ Sigma_M Phi^+^T`` (3.60), the direct part of (3.58), with the
+point variance ``|H|^2 (1 - kappa)`` (3.59) when the FRF carries a coherence ``kappa``, else
+estimated from the fit residual.  The part through the poles (their errors change the basis
+``Phi``) follows from the poles' covariance (3.56), see
+:mod:`sdctrl.identification._pole_statistics`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from sdctrl._lib.validate import QUANTITY_POWER
-from sdctrl.identification._residues import LSQ, basis
+from sdctrl._lib.threads import single_thread
+from sdctrl.identification._pole_statistics import coefficient_variance, fit_statistics
 
-__all__ = ["residue_std"]
+__all__ = ["model_statistics", "residue_std", "statistics_or_none"]
 
 
-def residue_std(cm, frf, n_averages: int = 1) -> np.ndarray:
-    """Standard deviation of the residues of ``cm`` from the coherence of ``frf`` (3.59)-(3.60).
+def model_statistics(cm, data, n_averages: int = 1):
+    """:class:`FitStatistics` of ``cm`` fitted to ``data`` (the band's lines), with the
+    options of its fit (poles held fixed when they were given with ``optimizer="none"``).
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        Identified model.
+    data : FRF
+        The lines of its band.
+    n_averages : int
+        Averages behind the coherence.
+
+    Returns
+    -------
+    FitStatistics or None
+    """
+    fit = cm.search                               # how the model was fitted, when known
+    model = (None if fit is None else fit.model) or "complex"
+    asym = (False, False) if fit is not None and fit.asymptotic is False else (True, True)
+    return fit_statistics(cm, data, model, asym, n_averages,
+                          poles_fixed=fit is not None and fit.optimizer == "none")
+
+
+def statistics_or_none(cm, data):
+    """:func:`model_statistics` of a fit, None when they cannot be evaluated in double
+    precision (data at the edge of the float range) rather than NaN or an error.
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The fit.
+    data : FRF
+        The lines of its band.
+
+    Returns
+    -------
+    FitStatistics or None
+    """
+    with np.errstate(all="ignore"):
+        try:
+            stats = model_statistics(cm, data)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+    if stats is None or not all(np.all(np.isfinite(a)) for a in
+                                (stats.S, stats.A_inv, stats.M, stats.K, stats.V)):
+        return None
+    return stats
+
+
+def residue_std(cm, frf=None, n_averages: int = 1, direct_only: bool = False) -> np.ndarray:
+    """Standard deviation of the residues of ``cm`` (3.58)-(3.60).
 
     Parameters
     ----------
     cm : ComplexModeModel
         Identified model (its band and poles define the basis ``Phi``).
-    frf : FRF
-        Measured FRF with ``coherence`` (same sensors and actuators as ``cm``).
+    frf : FRF, optional
+        Measured FRF (same sensors and actuators as ``cm``), with or without coherence;
+        default the statistics stored on ``cm`` by :func:`~sdctrl.identify`.
     n_averages : int
         Number of averages of the FRF estimate; the point variance (3.59) is divided by it.
+    direct_only : bool
+        Only the direct part of (3.58).
 
     Returns
     -------
     ndarray, shape (n, ns, na)
         Standard deviation of each complex residue ``R_j`` (real and imaginary parts
-        together, ``sqrt(var Re + var Im)``).
+        together, ``sqrt(var Re + var Im)``); NaN when the data do not determine them.
     """
     from sdctrl.data._frf import FRF
 
-    if not isinstance(frf, FRF):
-        raise TypeError(f"frf must be an sdctrl.FRF, got {type(frf).__name__}")
-    if frf.coherence is None:
-        raise ValueError("frf must carry a coherence to estimate the residue variance (3.59)")
-    if frf.H.shape[1:] != (cm.ns, cm.na):
-        raise ValueError(f"frf must have {cm.ns} sensors x {cm.na} actuators like the model, "
-                         f"got {frf.H.shape[1:]}")
     if isinstance(n_averages, bool) or not isinstance(n_averages, int | np.integer) \
             or n_averages < 1:
         raise ValueError(f"n_averages must be a positive integer, got {n_averages!r}")
-    data = frf.band(*cm.band) if cm.band is not None else frf
-    nf = data.freq.size
-    s = 2j * np.pi * data.freq
-    k = QUANTITY_POWER[data.quantity]
-    fit = cm.search                               # how the model was fitted, when known
-    model = (None if fit is None else fit.model) or "complex"
-    asym = (False, False) if fit is not None and fit.asymptotic is False else (True, True)
-    Phi = basis(cm.poles, s, k, model, asym)
-    lsq = LSQ(Phi)
-    # pseudo-inverse rows of the real stacked problem: P = diag(1/scale) R^-1 Q^T
-    from scipy.linalg import solve_triangular
-
-    P = solve_triangular(lsq.Rr, lsq.Q.T) / lsq.scale[:, None]          # (p, 2nf)
-    var = np.abs(data.H) ** 2 * (1.0 - data.coherence) / n_averages    # (nf, ns, na)
-    var = var.reshape(nf, -1) / 2.0                                     # per real/imag part
-    W = np.vstack([var, var])                                           # (2nf, m)
-    vc = (P**2) @ W                                                     # (p, m)
-    n = cm.n
-    if model == "complex":
-        v = vc[0:2 * n:2] + vc[1:2 * n:2]
+    if frf is None:
+        stats = cm.statistics
     else:
-        v = vc[:n] / np.abs(cm.poles - cm.poles.conj())[:, None] ** 2
+        if not isinstance(frf, FRF):
+            raise TypeError(f"frf must be an sdctrl.FRF or None, got {type(frf).__name__}")
+        if frf.H.shape[1:] != (cm.ns, cm.na):
+            raise ValueError(f"frf must have {cm.ns} sensors x {cm.na} actuators like the "
+                             f"model, got {frf.H.shape[1:]}")
+        data = frf.band(*cm.band) if cm.band is not None else frf
+        with single_thread():                     # small dense kernels, as identify
+            stats = model_statistics(cm, data, n_averages)
+    n = cm.n
+    if stats is None:
+        return np.full(cm.residues.shape, np.nan)
+    var = coefficient_variance(stats, direct_only)                      # (q, m)
+    if stats.model == "complex":
+        v = var[0:2 * n:2] + var[1:2 * n:2]
+    else:
+        v = var[:n] / np.abs(cm.poles - cm.poles.conj())[:, None] ** 2
     return np.sqrt(v).reshape(n, cm.ns, cm.na)

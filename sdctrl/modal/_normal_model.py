@@ -18,7 +18,7 @@ in :mod:`sdctrl.modal._operations`; reanalysis of changes given on physical DOFs
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -32,6 +32,7 @@ from sdctrl._lib.validate import (
     check_freq,
     check_info,
     check_labels,
+    check_modal_std,
     check_quantity,
     check_scalar,
     check_square,
@@ -86,6 +87,9 @@ class NormalModeModel:
     n_static : int
         Static correction modes (2.21)-(2.22) among the modes: those appended last by
         ``FEModel.normal_mode_model(..., static=True)``, kind ``"static"`` of a hybrid.
+    std : dict, optional
+        One standard deviation of each entry of ``"Omega"``, ``"Gamma"``, ``"cphi"``,
+        ``"phib"`` (arrays of their shapes) for an identified model; None without statistics.
     """
 
     Omega: np.ndarray
@@ -103,6 +107,7 @@ class NormalModeModel:
     properness: object = None
     transformation: np.ndarray | None = None
     n_static: int = 0
+    std: dict | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         Omega = check_square(self.Omega, "Omega")
@@ -119,12 +124,8 @@ class NormalModeModel:
             scale = max(np.abs(X).max(), 1e-300)
             if np.abs(X - X.T).max() > 1e-8 * scale:
                 raise ValueError(f"{name} must be symmetric")
-        E = None
-        if self.E is not None:
-            E = as_array(self.E, "E", shape=(ns, na))
-        F = None
-        if self.F is not None:
-            F = as_array(self.F, "F", shape=(ns, na))
+        E = None if self.E is None else as_array(self.E, "E", shape=(ns, na))
+        F = None if self.F is None else as_array(self.F, "F", shape=(ns, na))
         shapes = None
         if self.shapes is not None:
             shapes = as_array(self.shapes, "shapes", ndim=2)
@@ -156,6 +157,7 @@ class NormalModeModel:
                 or self.n_static < 0:
             raise ValueError(f"n_static must be a non-negative integer, got {self.n_static!r}")
         sets(self, "n_static", int(self.n_static))
+        sets(self, "std", check_modal_std(self.std, n, ns, na))
 
     # --- display ------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -208,10 +210,9 @@ class NormalModeModel:
         return poles(self)
 
     def replace(self, **changes) -> NormalModeModel:
-        """Copy with some fields changed (validated again)."""
-        kw = {k: getattr(self, k) for k in ("Omega", "Gamma", "cphi", "phib", "E", "sensors",
-                                            "actuators", "shapes", "dofs", "omega_c", "info", "F",
-                                            "properness", "transformation", "n_static")}
+        """Copy with some fields changed (validated again; ``std`` dropped with new parameters)."""
+        kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        kw["std"] = None if changes.keys() & {"Omega", "Gamma", "cphi", "phib"} else self.std
         kw.update(changes)
         return NormalModeModel(**kw)
 

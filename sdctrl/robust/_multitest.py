@@ -60,8 +60,12 @@ def _align(ref, m):
     S = np.diag(sgn)
     P = np.eye(len(perm))[:, perm]
     T = P @ S
+    sd = getattr(m, "std", None)           # standard deviations: permuted, never signed
+    std = None if sd is None else {"Omega": sd["Omega"][np.ix_(perm, perm)],
+                                   "Gamma": sd["Gamma"][np.ix_(perm, perm)],
+                                   "phib": sd["phib"][perm], "cphi": sd["cphi"][:, perm]}
     return m.replace(Omega=T.T @ m.Omega @ T, Gamma=T.T @ m.Gamma @ T,
-                     phib=T.T @ m.phib, cphi=m.cphi @ T), mac[np.arange(len(perm)), perm]
+                     phib=T.T @ m.phib, cphi=m.cphi @ T, std=std), mac[np.arange(len(perm)), perm]
 
 
 def multi_test_statistics(models, reference: int = 0, k: float = 1.0) -> MultiTestResult:

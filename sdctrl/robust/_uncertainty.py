@@ -104,6 +104,9 @@ class UncertainModel:
         Bounds on the entries of ``cphi``.
     params : list
         Internal list of ``(name, (kind, i, j), repetition, bound)`` built by :func:`uncertain`.
+    source : str
+        Where the bounds come from (e.g. identification statistics, several tests); empty
+        when they were given by hand.
     """
 
     model: object
@@ -112,6 +115,7 @@ class UncertainModel:
     db: np.ndarray
     dc: np.ndarray
     params: list = field(default_factory=list)
+    source: str = ""
 
     def __repr__(self) -> str:
         kinds = {}
@@ -122,7 +126,8 @@ class UncertainModel:
         return one_line("UncertainModel", [
             f"n={m.n}", f"ns={m.ns}", f"na={m.na}",
             f"{len(self.params)} uncertain parameters" + (f" ({what})" if what else ""),
-            f"{sum(p[2] for p in self.params)} Delta channels"])
+            f"{sum(p[2] for p in self.params)} Delta channels",
+            f"bounds from {self.source}" if self.source else ""])
 
     def _repr_markdown_(self) -> str:
         rows = [(name, rep, f"{beta:.3g}") for name, _, rep, beta in self.params]

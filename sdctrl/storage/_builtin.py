@@ -13,7 +13,7 @@ from sdctrl.storage._values import short
 __all__: list[str] = []
 
 
-def _build_uncertain(model, dGamma, dOmega, db, dc, params=()):
+def _build_uncertain(model, dGamma, dOmega, db, dc, params=(), source=""):
     """UncertainModel from stored fields, checked as :func:`sdctrl.robust._uncertainty.uncertain` builds
     them (the dataclass itself does not validate)."""
     from sdctrl.modal._normal_model import NormalModeModel
@@ -40,7 +40,30 @@ def _build_uncertain(model, dGamma, dOmega, db, dc, params=()):
                         for i, lim in zip(p[1][1:], limits[p[1][0]]))
         if not ok:
             raise ValueError(f"malformed uncertain parameter {short(p)}")
-    return UncertainModel(model, dGamma, dOmega, db, dc, params)
+    if not isinstance(source, str):
+        raise TypeError("source must be a string")
+    return UncertainModel(model, dGamma, dOmega, db, dc, params, source)
+
+
+def _build_fit_stats(S, A_inv, M, K, V, model="complex", asymptotic=(True, True),
+                     noise="residual"):
+    """FitStatistics from stored fields, shapes and options checked (files may be hostile)."""
+    from sdctrl.identification._pole_statistics import FitStatistics
+
+    arrays = {"S": S, "A_inv": A_inv, "M": M, "K": K, "V": V}
+    if not all(isinstance(a, np.ndarray) and np.all(np.isfinite(a)) for a in arrays.values()):
+        raise ValueError("FitStatistics arrays must be finite arrays")
+    n2, (m, q) = S.shape[0], V.shape[:2]
+    shapes = {"S": (n2, n2), "A_inv": (n2, n2), "M": (m, q, n2), "K": (m, q, n2),
+              "V": (m, q, q)}
+    for k, a in arrays.items():
+        if a.shape != shapes[k]:
+            raise ValueError(f"FitStatistics {k} must have shape {shapes[k]}, got {a.shape}")
+    if model not in ("complex", "real") or noise not in ("coherence", "residual") or \
+            not (isinstance(asymptotic, tuple) and len(asymptotic) == 2
+                 and all(isinstance(a, bool) for a in asymptotic)):
+        raise ValueError("malformed FitStatistics options")
+    return FitStatistics(S, A_inv, M, K, V, model, asymptotic, noise)
 
 
 def _build_robust(**values):
@@ -80,12 +103,15 @@ def _build_hybrid(**values):
 
     return HybridModel(**legacy_hybrid(values))
 
+
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
                 "units", "exponential_tau"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"},
                build=_build_complex)
+register_attrs("FitStatistics", "sdctrl.identification._pole_statistics:FitStatistics",
+               kinds={k: "f" for k in ("S", "A_inv", "M", "K", "V")}, build=_build_fit_stats)
 register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL,
                build=_build_normal)
 register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL,

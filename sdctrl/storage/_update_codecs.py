@@ -143,7 +143,7 @@ def _build_cost_problem(rm, omega, logH, parameters):
 
 
 def _build_update(values, fe, cost_before, cost_after, parameters, pairing, stages, model,
-                  info=None, damping=None, test_modes=None):
+                  info=None, damping=None, test_modes=None, std=None):
     """:class:`~sdctrl.updating._update_fit.UpdateResult` checked field by field."""
     from sdctrl.fe import FEModel
     from sdctrl.modal._normal_model import NormalModeModel
@@ -172,19 +172,21 @@ def _build_update(values, fe, cost_before, cost_after, parameters, pairing, stag
     for name, text in (("damping", damping), ("test_modes", test_modes)):
         if text is not None and not isinstance(text, str):
             raise _fail(f"update {name}", text)
+    std = {} if std is None else _float_dict(std, [p.name for p in pars], "update std", False)
     return UpdateResult(values, fe, _number(cost_before, "update cost_before", False),
                         _number(cost_after, "update cost_after", False), pars, pairing,
-                        stages, model, info, damping=damping, test_modes=test_modes)
+                        stages, model, info, damping=damping, test_modes=test_modes, std=std)
 
 
 def _build_identifiability(names, sensitivity, correlation, confounded, weak, error_level,
-                           error_source, standard_change, separation, problem):
+                           error_source, standard_change, separation, problem, std=None,
+                           estimate_correlation=None):
     """:class:`~sdctrl.updating._identifiability.Identifiability` checked field by field."""
     from sdctrl.updating._identifiability import CostProblem, Identifiability
 
     n = len(_names(names, "identifiability names"))
     sens = _float_dict(sensitivity, names, "identifiability sensitivity")
-    std = _float_dict(standard_change, names, "identifiability standard_change")
+    change = _float_dict(standard_change, names, "identifiability standard_change")
     corr = _array(correlation, "identifiability correlation", "f", (n, n))
     sep = _array(separation, "identifiability separation", "f", (n, n), finite=False)
     pairs_ok = isinstance(confounded, list) and all(
@@ -195,9 +197,12 @@ def _build_identifiability(names, sensitivity, correlation, confounded, weak, er
     if not isinstance(error_source, str) or not isinstance(problem, CostProblem) or \
             problem.rm.names != names:
         raise _fail("identifiability problem", problem)
+    pstd = {} if std is None else _float_dict(std, names, "identifiability std", False)
+    ecorr = None if estimate_correlation is None else _array(
+        estimate_correlation, "identifiability estimate_correlation", "f", (n, n), finite=False)
     return Identifiability(names, sens, corr, confounded, weak,
                            _number(error_level, "identifiability error_level"), error_source,
-                           std, sep, problem)
+                           change, sep, problem, pstd, ecorr)
 
 
 register_attrs("Parameter", "sdctrl.fe._parameters:Parameter",
@@ -212,5 +217,6 @@ register_attrs("CostProblem", "sdctrl.updating._identifiability:CostProblem",
                kinds={"omega": "f", "logH": "f"}, build=_build_cost_problem, lenient=())
 register_attrs("UpdateResult", "sdctrl.updating._update_fit:UpdateResult", build=_build_update)
 register_attrs("Identifiability", "sdctrl.updating._identifiability:Identifiability",
-               kinds={"correlation": "f", "separation": "f"}, build=_build_identifiability,
+               kinds={"correlation": "f", "separation": "f", "estimate_correlation": "f"},
+               build=_build_identifiability,
                lenient=())

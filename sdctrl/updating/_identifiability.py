@@ -4,20 +4,23 @@ For each parameter and its standard change ``delta`` (:attr:`Parameter.standard_
 
 - **sensitivity** -- the logLS cost (3.12) between the nominal model and the model changed
   by ``delta`` on the test's lines, sensors and actuators (Table 4.1);
-- **weak** -- a sensitivity below the measurement's own error level (the expected logLS
-  cost of the data against the truth: from the coherence, else the misfit of an identified
-  model): the test cannot see a standard change of that parameter (section 4.2.1: "the
-  only parameters that can be updated are those that have an influence on the tested
-  response larger than the residual error");
 - **correlation** -- of the parameters' effects on the measured responses: the columns
   ``J_i = d log|H| / d p_i * delta_i`` of the logLS residual's Jacobian at the nominal;
-- **confounded** -- pairs of parameters (neither weak) whose effects the test cannot tell
-  apart: ``|correlation| > 0.95``, or a combination of standard changes of the two
-  (``a delta_i e_i + b delta_j e_j``, ``a^2 + b^2 = 1``) whose effect is below the error
-  level (the smallest singular value of ``[J_i, J_j]``, squared and averaged like the
-  cost).  The second criterion flags the same kind of pair as the first when the effects
-  are strong, and also nearly parallel effects of parameters that are barely above the
-  noise;
+- **std** -- the standard deviation each parameter would have if updated with this test:
+  the covariance ``(J^T J)^-1 J^T diag(v) J (J^T J)^-1`` of the logLS estimate with the
+  measurement's point variance ``v`` of ``log|H|`` (from the coherence, else the error
+  level: the misfit of an identified model), all parameters fitted together
+  (:mod:`sdctrl.updating._update_statistics`, the prediction of ``UpdateResult.std``);
+- **weak** -- a predicted standard deviation above the standard change: the test cannot
+  determine a standard change of that parameter (section 4.2.1: "the only parameters that
+  can be updated are those that have an influence on the tested response larger than the
+  residual error");
+- **confounded** -- pairs of parameters (neither weak) whose estimates the test cannot tell
+  apart: the predicted correlation of the two estimates beyond ``0.95`` (a long, thin
+  joint confidence region);
+- **separation** -- for information, the mean squared effect of the least-distinguishable
+  unit combination of standard changes of each pair (the smallest singular value of
+  ``[J_i, J_j]``, squared and averaged like the cost);
 - a **cost map** over two parameters against the data (Figure 4.6): a long flat valley is
   a pair the test cannot separate (the thesis's mirror and plate masses).
 """
@@ -37,6 +40,11 @@ from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.updating._update_fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating._placed_test import error_level, identify_measured, measured_modes, place_test
 from sdctrl.updating._problem import build_problem, log_frf
+from sdctrl.updating._update_statistics import (
+    log_point_variance,
+    parameter_covariance,
+    std_and_correlation,
+)
 
 __all__ = ["CostMap", "CostProblem", "Identifiability", "identifiability"]
 
@@ -96,9 +104,10 @@ class Identifiability:
     correlation : ndarray, shape (n, n)
         Correlation of the parameters' effects on the measured responses.
     confounded : list of (str, str)
-        Pairs the test cannot tell apart.
+        Pairs the test cannot tell apart (predicted correlation of their estimates beyond
+        ``corr_max``).
     weak : list of str
-        Parameters whose effect is below the measurement's error.
+        Parameters whose predicted standard deviation exceeds their standard change.
     error_level : float
         The measurement's own logLS error level.
     error_source : str
@@ -110,6 +119,10 @@ class Identifiability:
         changes of each pair (inf on the diagonal).
     problem : CostProblem
         The reduced update problem (for :meth:`cost_map`).
+    std : dict
+        Name -> predicted standard deviation of ``p`` if updated with this test.
+    estimate_correlation : ndarray, shape (n, n)
+        Predicted correlation of the estimates of the parameters (the confounded verdict).
     """
 
     names: tuple
@@ -122,6 +135,8 @@ class Identifiability:
     standard_change: dict
     separation: np.ndarray
     problem: object = field(repr=False)
+    std: dict = field(default_factory=dict)
+    estimate_correlation: np.ndarray | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
         return (f"Identifiability({len(self.names)} parameters, weak {self.weak}, confounded "
@@ -135,9 +150,11 @@ class Identifiability:
         str
         """
         rows = [(n, f"{self.standard_change[n]:.4g}", f"{self.sensitivity[n]:.3g}",
-                 "weak" if n in self.weak else "ok") for n in self.names]
+                 f"{self.std.get(n, float('nan')):.3g}", "weak" if n in self.weak else "ok")
+                for n in self.names]
         out = ["## Identifiability of the parameters (Table 4.1)", "",
-               markdown_table(["parameter", "standard change", "logLS change", "verdict"], rows),
+               markdown_table(["parameter", "standard change", "logLS change", "predicted std",
+                               "verdict"], rows),
                "", (f"Measurement error level (logLS): {self.error_level:.3g} "
                f"({self.error_source})."), ""]
         if len(self.names) > 1:
@@ -222,7 +239,7 @@ def _effects(prob, deltas, h: float = 1e-3):
     return np.array(sens), np.array(cols).T
 
 
-def _pairs(names, corr, J, level, weak, corr_max):
+def _pairs(names, est_corr, J, weak, corr_max):
     n_el = J.shape[0]
     sep = np.full((len(names),) * 2, np.inf)
     confounded = []
@@ -231,7 +248,7 @@ def _pairs(names, corr, J, level, weak, corr_max):
         sep[i, j] = sep[j, i] = float(s[-1] ** 2 / n_el)
         if names[i] in weak or names[j] in weak:
             continue
-        if abs(corr[i, j]) > corr_max or sep[i, j] < level:
+        if not abs(est_corr[i, j]) <= corr_max:            # NaN: not determined apart
             confounded.append((names[i], names[j]))
     return confounded, sep
 
@@ -261,7 +278,7 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     n_averages : int
         Averages behind the coherence (the error level divides by it).
     corr_max : float
-        Correlation above which two parameters are confounded.
+        Predicted correlation of two estimates above which the parameters are confounded.
     fmax : float, optional
         Highest normal-mode frequency (Hz) of the reduced basis (default 2.5 x band top).
 
@@ -310,11 +327,15 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     norms = np.linalg.norm(J, axis=0)
     corr = (J.T @ J) / np.outer(np.maximum(norms, 1e-300), np.maximum(norms, 1e-300))
     names = tuple(p.name for p in pars)
-    weak = [nm for nm, s in zip(names, sens) if s < level]
-    confounded, sep = _pairs(names, corr, J, level, weak, corr_max)
+    var = log_point_variance(measured.frf if source == "coherence" else None,
+                             measured.logH.shape, n_averages, level=level).ravel()
+    std, est_corr = std_and_correlation(names, parameter_covariance(J / deltas, var))
+    weak = [nm for nm, d in zip(names, deltas) if not std[nm] <= abs(d)]   # NaN: weak
+    confounded, sep = _pairs(names, est_corr, J, weak, corr_max)
     return Identifiability(names, dict(zip(names, sens.tolist())), corr, confounded, weak,
                            level, source, dict(zip(names, deltas.tolist())), sep,
-                           CostProblem(prob.rm, measured.omega, measured.logH, pars))
+                           CostProblem(prob.rm, measured.omega, measured.logH, pars), std,
+                           est_corr)
 
 
 @dataclass(frozen=True, eq=False)

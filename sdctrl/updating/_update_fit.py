@@ -37,6 +37,7 @@ from sdctrl.fe._parameters import Parameter
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.updating._placed_test import measured_modes, place_test
 from sdctrl.updating._problem import apply_parameters, build_problem
+from sdctrl.updating._update_statistics import fitted_std
 
 __all__ = ["UpdateResult", "check_parameters", "damping_choice", "update"]
 
@@ -80,6 +81,10 @@ class UpdateResult:
     test_modes : str
         Source of the test modes paired with the FE modes (4.9): ``"identified complex
         modes"``, ``"identified normal modes"``, ``"given normal modes"``...
+    std : dict
+        Parameter name -> one standard deviation of the fitted ``p`` under the test's noise
+        (Cramer-Rao bound of the logLS fit at the optimum,
+        :mod:`~sdctrl.updating._update_statistics`).
     """
 
     values: dict
@@ -93,6 +98,7 @@ class UpdateResult:
     info: dict = field(default_factory=dict, repr=False)
     damping: str | None = None
     test_modes: str | None = None
+    std: dict = field(default_factory=dict)
 
     def __repr__(self) -> str:
         vals = ", ".join(f"{k}={v:.4g}" for k, v in self.values.items())
@@ -106,10 +112,13 @@ class UpdateResult:
         -------
         str
         """
-        rows = [(p.name, "0", f"{self.values[p.name]:.5g}", f"[{p.bounds[0]:g}, {p.bounds[1]:g}]",
-                 p.description or "") for p in self.parameters]
+        rows = [(p.name, "0", f"{self.values[p.name]:.5g}",
+                 f"{self.std.get(p.name, float('nan')):.2g}",
+                 f"[{p.bounds[0]:g}, {p.bounds[1]:g}]", p.description or "")
+                for p in self.parameters]
         out = ["## FE model update (logLS, reanalysis)", "",
-               markdown_table(["parameter", "initial", "final", "bounds", "description"], rows),
+               markdown_table(["parameter", "initial", "final", "std", "bounds", "description"],
+                              rows),
                "", (f"logLS cost (3.12): before **{self.cost_before:.4g}**, after "
                f"**{self.cost_after:.4g}** (damping: {self.damping or '?'})."), ""]
         st = [(s["stage"], ", ".join(f"{v:.4g}" for v in s["values"]), f"{s['cost']:.4g}",
@@ -332,6 +341,7 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             bar.update()
             after = prob1.pairing(np.zeros(npar)) if modes.n else None
             model = _normal_mode_model(prob1, fe1, measured)
+            std = fitted_std(prob1, measured, [par.name for par in pars], scale)
     finally:
         bar.close()
     if cost_after > cost_before:
@@ -344,7 +354,7 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
         pairing=_pairing_table(modes, before, after), stages=tuple(stages), model=model,
         info={"basis": {"modes": prob1.basis.n_modes, "static": prob1.basis.n_static},
               "strategy": strategy, "time": time.perf_counter() - t0},
-        damping=_damping_text(choice, modes), test_modes=modes.source)
+        damping=_damping_text(choice, modes), test_modes=modes.source, std=std)
 
 
 def _frequency_stage(prob, p, lo, hi, scale, nfev_max):

@@ -1,0 +1,254 @@
+"""Statistics of an identified complex-mode model under the test's noise (thesis 3.4).
+
+The identified poles minimise the variable-projection cost ``sum_c ||P_perp(theta) y_c||^2``
+(3.16) with the residues projected out (``y_c`` the stacked ``[Re; Im]`` data of channel
+``c``, ``theta`` the real and imaginary parts of the poles).  Their sensitivity to the data
+is the implicit-function relation (3.56): to first order ``d theta = A^-1 sum_c B_c^T dy_c``
+with ``B_c = P_perp D_c``, ``D_c = d(Phi C_c)/d theta`` at fixed coefficients (the
+Gauss-Newton, Kaufman, Jacobian of the residual) and ``A = sum_c B_c^T B_c``.  The
+coefficients follow (3.58): ``dC_c = Phi^+ dy_c - Phi^+ D_c d theta``, a direct part and a
+part through the poles.  With independent noise of variance ``W_c^2`` on each stacked point
+(the point variance ``|H|^2 (1 - coherence)`` (3.59) when the FRF has a coherence, else
+estimated from the residual) the covariance of ``[theta; C_1 ... C_m]`` is
+
+* ``S = Cov(theta) = A^-1 (sum_c B_c^T W_c^2 B_c) A^-1`` (a sandwich: the fit is unweighted);
+* ``Cov(C_c, theta) = K_c A^-1 - M_c S``;
+* ``Cov(C_c, C_d) = delta_cd V_c - K_c A^-1 M_d^T - M_c A^-1 K_d^T + M_c S M_d^T``;
+
+with ``M_c = Phi^+ D_c``, ``K_c = Phi^+ W_c^2 B_c`` (zero for equal noise on every line),
+``V_c = Phi^+ W_c^2 Phi^+^T``.  These small blocks are kept (:class:`FitStatistics`), not
+the full covariance, which would be quadratic in the number of channels.
+
+The residual-based noise variance is local and heteroscedastic (as in the significance
+test, :mod:`sdctrl.identification._noise`): ``|r|^2 / (1 - h)`` with ``h`` the leverage of
+each point for *all* fitted parameters (residues, asymptotic terms and poles: the degrees
+of freedom of the fit), then the larger of an additive level and a level proportional to
+the fitted ``|H|^2``, each a running median over the lines.
+
+The pole search runs on data compressed to their dominant columns; the statistics are
+those of the full-data fit, which it matches when the compression keeps the signal
+(``info["compression_residual"]`` small).
+
+Internal module: the functions trust their inputs (validated by the callers).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from sdctrl._lib.validate import QUANTITY_POWER
+from sdctrl.identification._noise import running_median
+from sdctrl.identification._residues import LSQ, basis, stack
+
+__all__ = ["FitStatistics", "fit_statistics", "pole_std", "coefficient_variance"]
+
+
+@dataclass(frozen=True, eq=False)
+class FitStatistics:
+    """Covariance of an identified complex-mode model's parameters, in blocks (module notes).
+
+    Parameters are ``theta = [Re l_1, Im l_1, ..., Re l_n, Im l_n]`` (rad/s) and, for each
+    data channel ``c`` (sensor-major, ``c = s * na + a``), the real basis coefficients
+    ``C_c`` (q,) of :func:`~sdctrl.identification._residues.basis` (two per pole, ``Re R``
+    and ``Im R``, for the complex model; then ``E`` and ``F``).
+
+    Parameters
+    ----------
+    S : ndarray, shape (2n, 2n)
+        Covariance of ``theta``.
+    A_inv : ndarray, shape (2n, 2n)
+        Inverse of the Gauss-Newton matrix ``J^T J`` of the poles.
+    M, K : ndarray, shape (m, q, 2n)
+        ``Phi^+ D_c`` and ``Phi^+ W_c^2 B_c`` per channel.
+    V : ndarray, shape (m, q, q)
+        Direct covariance ``Phi^+ W_c^2 Phi^+^T`` of each channel's coefficients.
+    model : str
+        Parametrisation of the coefficients ("complex" or "real").
+    asymptotic : tuple of bool
+        Whether the coefficients hold ``E`` and ``F``.
+    noise : str
+        Where the noise variance came from: "coherence" or "residual".
+    """
+
+    S: np.ndarray
+    A_inv: np.ndarray
+    M: np.ndarray
+    K: np.ndarray
+    V: np.ndarray
+    model: str = "complex"
+    asymptotic: tuple[bool, bool] = (True, True)
+    noise: str = "residual"
+
+    @property
+    def n(self) -> int:
+        """Number of poles."""
+        return self.S.shape[0] // 2
+
+    def __repr__(self) -> str:
+        return (f"FitStatistics(n={self.n}, channels={self.V.shape[0]}, "
+                f"noise={self.noise!r})")
+
+
+def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_averages=1,
+                   poles_fixed=False):
+    """Covariance blocks of ``cm``'s parameters fitted to ``data`` (3.56)-(3.59).
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The identified model (displacement residues, poles in rad/s).
+    data : FRF
+        The lines it was fitted to (its band), same channels.
+    model : {"complex", "real"}
+        Parametrisation of the fit.
+    asymptotic : (bool, bool)
+        Whether ``E`` and ``F`` were fitted.
+    n_averages : int
+        Averages behind the coherence (divides the point variance 3.59).
+    poles_fixed : bool
+        The poles were given, not estimated: their covariance is zero and the residues
+        have only the direct part of (3.58).
+
+    Returns
+    -------
+    FitStatistics or None
+        None when the data leave no degree of freedom for the noise or the poles'
+        Jacobian is singular.
+    """
+    nf, ns, na = data.H.shape
+    m = ns * na
+    s = 2j * np.pi * data.freq
+    k = QUANTITY_POWER[data.quantity]
+    lam = np.asarray(cm.poles)
+    n = lam.size
+    Phi = basis(lam, s, k, model, asymptotic)
+    q = Phi.shape[1]
+    if 2 * nf * m <= q * m + 2 * n:
+        return None
+    lsq = LSQ(Phi)
+    Pinv = sla.solve_triangular(lsq.Rr, lsq.Q.T, check_finite=False) / lsq.scale[:, None]
+    H = data.H.reshape(nf, m)
+    C = Pinv @ stack(H)                                               # (q, m)
+    npp = 2 if model == "complex" else 1
+    G = stack(_basis_derivative(lam, s, k, model).reshape(nf, -1))    # (2nf, 2n npp)
+    Gp = G - lsq.Q @ (lsq.Q.T @ G)                                   # P_perp dPhi/dtheta
+    Cp = C[(np.arange(2 * n) // 2)[:, None] * npp + np.arange(npp)]  # (2n, npp, m)
+    B = np.einsum("iau,aum->iam", Gp.reshape(2 * nf, 2 * n, npp), Cp)   # P_perp D_c
+    A = np.einsum("aubv,aubv->ab", (Gp.T @ Gp).reshape(2 * n, npp, 2 * n, npp),
+                  np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
+    if poles_fixed:
+        A_inv = np.zeros_like(A)
+    elif np.linalg.cond(A) > 1e14:
+        return None
+    else:
+        A_inv = np.linalg.inv(A)
+    if data.coherence is not None:
+        var = np.abs(H) ** 2 * (1.0 - data.coherence.reshape(nf, m)) / n_averages
+        W2 = np.vstack([var, var]) / 2.0
+        noise = "coherence"
+    else:
+        r = stack(H) - stack(Phi) @ C
+        W2 = _residual_variance(r, stack(Phi) @ C, lsq.Q, B, A_inv)
+        noise = "residual"
+    WB = B * W2[:, None, :]
+    S = A_inv @ np.tensordot(WB, B, axes=([0, 2], [0, 2])) @ A_inv
+    M = np.einsum("pau,aum->mpa", (Pinv @ G).reshape(q, 2 * n, npp), Cp)   # Phi^+ D_c
+    K = (Pinv @ WB.reshape(2 * nf, -1)).reshape(q, 2 * n, m).transpose(2, 0, 1)
+    V = (Pinv[None] * W2.T[:, None, :]) @ Pinv.T
+    return FitStatistics(S=0.5 * (S + S.T), A_inv=A_inv, M=M, K=K, V=V, model=model,
+                         asymptotic=tuple(bool(a) for a in asymptotic), noise=noise)
+
+
+def _basis_derivative(lam, s, k, model):
+    """Derivatives of each pole's basis columns w.r.t. ``(Re l_j, Im l_j)``, complex
+    (nf, 2n, npp): ``d H_c / d theta_a = G[:, a] @ C[rows of pole a // 2, c]``."""
+    a = 1.0 / (s[:, None] - lam[None, :])                  # 1/(s - l)
+    b = 1.0 / (s[:, None] - lam.conj()[None, :])           # 1/(s - l^*)
+    if model == "complex":                                 # g1 = a + b, g2 = i (a - b)
+        plus, minus = a**2 + b**2, a**2 - b**2
+        d_re = np.stack([plus, 1j * minus], axis=-1)
+        d_im = np.stack([1j * minus, -plus], axis=-1)
+    else:                                                  # g = a b
+        d_re = (a**2 * b + a * b**2)[..., None]
+        d_im = 1j * (a**2 * b - a * b**2)[..., None]
+    out = np.stack([d_re, d_im], axis=2).reshape(s.size, 2 * lam.size, -1)
+    return out * (s**k)[:, None, None] if k else out
+
+
+def _residual_variance(r, Yfit, Q, B, A_inv):
+    """Noise variance per stacked point from the fit residual (module notes).
+
+    ``r``, ``Yfit`` (2nf, m) stacked; ``Q`` (2nf, q) the residues' orthonormal basis;
+    ``B`` (2nf, 2n, m) the poles' projected Jacobian, ``A_inv`` its Gauss-Newton inverse.
+    """
+    nf = r.shape[0] // 2
+    BA = np.tensordot(B, A_inv, axes=([1], [0]))                       # (2nf, m, 2n)
+    lev = np.sum(Q * Q, axis=1)[:, None] + np.sum(BA * B.transpose(0, 2, 1), axis=2)
+    lev = 0.5 * (lev[:nf] + lev[nf:])                      # per line and channel
+    e = (r[:nf] ** 2 + r[nf:] ** 2) / np.maximum(1.0 - lev, 0.05)
+    shape = Yfit[:nf] ** 2 + Yfit[nf:] ** 2
+    tiny = 1e-300 + 1e-30 * float(np.max(shape))
+    win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
+    add = running_median(e, win)
+    mult = running_median(e / (shape + tiny), win) * shape
+    var = np.maximum(add, mult) / np.log(2.0)              # E[r_re^2 + r_im^2], mean/median
+    return np.vstack([var, var]) / 2.0
+
+
+def pole_std(stats: FitStatistics, poles) -> tuple[np.ndarray, np.ndarray]:
+    """One standard deviation of each pole's frequency (Hz) and damping ratio.
+
+    ``f = |l| / 2 pi``, ``zeta = -Re l / |l|``; their gradients with respect to
+    ``(Re l, Im l)`` map each pole's 2x2 covariance block of ``S``.
+
+    Parameters
+    ----------
+    stats : FitStatistics
+        Covariance blocks of the fit (None: nothing known).
+    poles : ndarray, shape (n,)
+        The poles (rad/s).
+
+    Returns
+    -------
+    frequency_std, damping_std : ndarray, shape (n,)
+        NaN where the data do not determine them.
+    """
+    lam = np.asarray(poles, complex)
+    n = lam.size
+    if stats is None or stats.n != n:
+        return np.full(n, np.nan), np.full(n, np.nan)
+    x, y = lam.real, lam.imag
+    r = np.abs(lam)
+    gf = np.stack([x, y], axis=1) / (r[:, None] * 2 * np.pi)           # df/d(x, y)
+    gz = np.stack([-y**2, x * y], axis=1) / r[:, None] ** 3            # dzeta/d(x, y)
+    blocks = stats.S.reshape(n, 2, n, 2)[np.arange(n), :, np.arange(n), :]   # (n, 2, 2)
+    vf = np.einsum("ja,jab,jb->j", gf, blocks, gf)
+    vz = np.einsum("ja,jab,jb->j", gz, blocks, gz)
+    ok = np.isfinite(vf) & np.isfinite(vz) & (vf >= 0) & (vz >= 0)
+    return (np.where(ok, np.sqrt(np.abs(vf)), np.nan),
+            np.where(ok, np.sqrt(np.abs(vz)), np.nan))
+
+
+def coefficient_variance(stats: FitStatistics, direct_only: bool = False) -> np.ndarray:
+    """Variance of each channel's coefficients, both parts of (3.58).
+
+    Parameters
+    ----------
+    stats : FitStatistics
+        Covariance blocks of the fit.
+    direct_only : bool
+        Only the direct part ``Phi^+ W^2 Phi^+^T`` (fixed poles).
+
+    Returns
+    -------
+    ndarray, shape (q, m)
+    """
+    direct = np.einsum("mpp->pm", stats.V)
+    if direct_only:
+        return direct
+    cross = np.einsum("mpa,ab,mpb->pm", stats.K, stats.A_inv, stats.M)
+    through = np.einsum("mpa,ab,mpb->pm", stats.M, stats.S, stats.M)
+    return np.maximum(direct - 2 * cross + through, 0.0)

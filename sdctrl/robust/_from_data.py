@@ -1,0 +1,112 @@
+"""Uncertain models whose bounds come from the data (thesis 3.4 and 5.2.3).
+
+Two sources of bounds on the parameters of a normal-mode model (5.5):
+
+* the statistics of one identification, ``NormalModeModel.std`` (propagated from the noise
+  of the test, 3.56-3.59): a Gaussian two-sided quantile ``z`` of ``level`` times each
+  standard deviation;
+* several tests of one structure (5.2.3): the mean model (modes aligned by MAC,
+  :func:`~sdctrl.robust._multitest.multi_test_statistics`) and the sample spread ``s`` of each
+  parameter, bounded by the prediction interval ``t_{N-1} s sqrt(1 + 1/N)`` (Student quantile
+  of ``level``) that covers a further test of the structure.
+
+With several tests that also carry statistics, each bound is the larger of the two (the
+statistical bound with the root-mean-square standard deviation of the tests).  The source is
+recorded in :attr:`UncertainModel.source`.  A residual-mass term ``F`` of the nominal model is
+dropped (the uncertain model of 5.5 has none; see :func:`uncertain`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from sdctrl.robust._multitest import multi_test_statistics
+from sdctrl.robust._uncertainty import UncertainModel, uncertain
+
+__all__ = ["uncertain_from_data"]
+
+_KEYS = {"Gamma": "dGamma", "Omega": "dOmega", "phib": "db", "cphi": "dc"}
+
+
+def uncertain_from_data(models, level: float = 0.95) -> UncertainModel:
+    """Structured uncertain model (5.5) with bounds from identification statistics or tests.
+
+    Parameters
+    ----------
+    models : NormalModeModel or sequence of NormalModeModel
+        One identified model with statistics (``std``, from :func:`~sdctrl.normal_modes` of
+        :func:`~sdctrl.identify`), or several identified models of the same structure
+        (same numbers of modes, sensors and actuators; several tests, 5.2.3).
+    level : float
+        Probability, in (0, 1), with which each bound covers its parameter.
+
+    Returns
+    -------
+    UncertainModel
+        Nominal model (the model, or the mean of the tests) and bounds ``dGamma``,
+        ``dOmega``, ``db``, ``dc``; ``source`` says where the bounds come from.
+
+    Raises
+    ------
+    TypeError
+        ``models`` is not a normal-mode model or a sequence of them.
+    ValueError
+        ``level`` outside (0, 1); a single model without statistics (or with undetermined
+        ones); models of different sizes.
+
+    Examples
+    --------
+    >>> import numpy as np, sdctrl as sd
+    >>> nm = sd.NormalModeModel(np.diag([100.0, 400.0]), np.diag([0.2, 0.4]), np.eye(2),
+    ...                         np.eye(2), std={"Omega": np.diag([1.0, 2.0]),
+    ...                         "Gamma": np.diag([0.01, 0.02]), "cphi": np.zeros((2, 2)),
+    ...                         "phib": np.zeros((2, 2))})
+    >>> um = sd.uncertain_from_data(nm, level=0.95)
+    >>> round(float(um.dOmega[0, 0]), 3)
+    1.96
+    """
+    from scipy.stats import norm, t
+
+    if isinstance(level, bool) or not isinstance(level, int | float) or not 0 < level < 1:
+        raise ValueError(f"level must be a probability in (0, 1), got {level!r}")
+    many = isinstance(models, list | tuple)
+    models = list(models) if many else [models]
+    for i, m in enumerate(models):
+        if not all(hasattr(m, k) for k in ("Omega", "Gamma", "cphi", "phib", "std")):
+            raise TypeError(f"models[{i}] must be a NormalModeModel, got {type(m).__name__}")
+    if not models:
+        raise ValueError("models must hold at least one NormalModeModel")
+    z = float(norm.ppf(0.5 + level / 2))
+    if len(models) == 1:
+        m = models[0]
+        if m.std is None:
+            raise ValueError("models: a single model must carry statistics (std), as "
+                             "sd.normal_modes(sd.identify(frf)) gives; give several tests "
+                             "of the structure otherwise")
+        bounds = {k: z * np.asarray(m.std[k]) for k in _KEYS}
+        source = f"identification statistics ({level:.0%}: {z:.3g} std)"
+        nominal = m
+    else:
+        res = multi_test_statistics(models)
+        N = len(models)
+        tq = float(t.ppf(0.5 + level / 2, N - 1)) * np.sqrt(1 + 1 / N)
+        bounds = {k: tq * np.asarray(res.std[k]) for k in _KEYS}
+        source = f"spread of {N} tests ({level:.0%}: {tq:.3g} sample std)"
+        stds = [a.std for a in res.aligned if a.std is not None]
+        if stds:
+            for k in _KEYS:
+                rms = np.sqrt(np.mean([np.asarray(s[k]) ** 2 for s in stds], axis=0))
+                bounds[k] = np.fmax(bounds[k], z * rms)
+            source = (f"larger of the spread of {N} tests ({tq:.3g} sample std) and their "
+                      f"identification statistics ({z:.3g} std), {level:.0%}")
+        nominal = res.mean
+    bad = [k for k in _KEYS if not np.all(np.isfinite(bounds[k]))]
+    if bad:
+        raise ValueError(f"models: the statistics of {bad} are undetermined (NaN): the data "
+                         "do not determine these parameters; give several tests")
+    if nominal.F is not None:
+        nominal = nominal.replace(F=None)
+    um = uncertain(nominal, **{_KEYS[k]: bounds[k] for k in _KEYS})
+    return dataclasses.replace(um, source=source)
