@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.statespace import ss_frf
 from sdctrl._lib.validate import (
     INPUT_SUFFIX,
@@ -33,7 +34,7 @@ from sdctrl._lib.validate import (
 __all__ = ["FRF", "estimate_frf"]
 
 
-class FRF:
+class FRF(FrozenState):
     """Measured or computed frequency response functions of a MIMO structure.
 
     Parameters

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.statespace import ss_frf
 from sdctrl._lib.display import MAX_ROWS, markdown_table, one_line
 from sdctrl._lib.validate import as_array, check_freq, check_int, check_seed, readonly, signal_names
@@ -88,7 +89,7 @@ class CompactLFT:
 
 
 @dataclass(frozen=True, eq=False)
-class UncertainModel:
+class UncertainModel(FrozenState):
     """Normal mode model with bounded real parametric uncertainty, eq. (5.5).
 
     Parameters
