@@ -19,10 +19,25 @@ results are identical to the serial run's, bit for bit.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 
-__all__ = ["chunked", "dask_client", "map_chunks", "share"]
+__all__ = ["Shared", "chunked", "dask_client", "map_chunks", "share"]
+
+
+@dataclass(frozen=True, eq=False)
+class Shared:
+    """What the tasks of one executor read: the value, or a Dask future of it.
+
+    Parameters
+    ----------
+    handle : object
+        The value itself (serial runs, threads, processes) or a Dask future of it.
+    """
+
+    handle: object
 
 
 def chunked(items, size: int) -> list:
@@ -48,8 +63,8 @@ def dask_client(executor):
     return client if callable(getattr(client, "scatter", None)) else None
 
 
-def share(executor, value):
-    """``value`` placed once where the executor's tasks read it.
+def share(executor, value) -> Shared:
+    """``value`` placed once where the executor's tasks read it (for several sweeps).
 
     Parameters
     ----------
@@ -60,14 +75,14 @@ def share(executor, value):
 
     Returns
     -------
-    object
-        A Dask future of ``value`` scattered to every worker (Dask executors), else
-        ``value`` itself (pickled with each task by a process pool).
+    Shared
+        Holding a Dask future of ``value`` scattered to every worker (Dask executors),
+        else ``value`` itself (pickled with each task by a process pool).
     """
     client = dask_client(executor)
     if client is None:
-        return value
-    return client.scatter(value, broadcast=True, hash=False)
+        return Shared(value)
+    return Shared(client.scatter(value, broadcast=True, hash=False))
 
 
 def _call(fn, chunk, shared):
@@ -84,8 +99,8 @@ def map_chunks(fn, chunks, shared, executor=None, progress=None, desc=None, unit
         Module-level function ``fn(chunk, shared)`` (picklable).
     chunks : list
         The chunks.
-    shared : object
-        What every chunk reads (scattered once on Dask).
+    shared : object or Shared
+        What every chunk reads (scattered on Dask, unless already a :class:`Shared`).
     executor : concurrent.futures.Executor, optional
         None runs serially.
     progress : bool or None
@@ -100,8 +115,9 @@ def map_chunks(fn, chunks, shared, executor=None, progress=None, desc=None, unit
     """
     n = len(chunks)
     if executor is None:
-        it = (_call(fn, c, shared) for c in chunks)
+        value = shared.handle if isinstance(shared, Shared) else shared
+        it = (_call(fn, c, value) for c in chunks)
     else:
-        handle = share(executor, shared)
+        handle = (shared if isinstance(shared, Shared) else share(executor, shared)).handle
         it = executor.map(_call, [fn] * n, chunks, [handle] * n)
     return list(progress_bar(it, total=n, desc=desc, unit=unit, enabled=progress))
