@@ -52,8 +52,9 @@ CLASSES = _public_classes()
 # ----------------------------------------------------------------------------------------
 # field-by-field equality
 # ----------------------------------------------------------------------------------------
-def same(a, b, path="obj"):
-    """Assert that ``b`` equals ``a`` exactly, recursively (arrays bit for bit)."""
+def same(a, b, path="obj", skip=()):
+    """Assert that ``b`` equals ``a`` exactly, recursively (arrays bit for bit); dict entries
+    named in ``skip`` (wall-clock times of two runs) are not compared."""
     assert type(a) is type(b), f"{path}: {type(a).__name__} vs {type(b).__name__}"
     if isinstance(a, np.ndarray):
         assert a.dtype == b.dtype and a.shape == b.shape, path
@@ -66,28 +67,29 @@ def same(a, b, path="obj"):
     elif isinstance(a, dict | MappingProxyType):
         assert list(a) == list(b), f"{path}: keys {list(a)} vs {list(b)}"
         for k in a:
-            same(a[k], b[k], f"{path}[{k!r}]")
+            if k not in skip:
+                same(a[k], b[k], f"{path}[{k!r}]", skip)
     elif isinstance(a, list | tuple):
         assert len(a) == len(b), path
         for i, (x, y) in enumerate(zip(a, b)):
-            same(x, y, f"{path}[{i}]")
+            same(x, y, f"{path}[{i}]", skip)
     elif isinstance(a, float | np.floating):
         assert a == b or (math.isnan(a) and math.isnan(b)), f"{path}: {a} vs {b}"
     elif isinstance(a, control.StateSpace):
         for m in "ABCD":
-            same(getattr(a, m), getattr(b, m), f"{path}.{m}")
+            same(getattr(a, m), getattr(b, m), f"{path}.{m}", skip)
         assert a.input_labels == b.input_labels and a.output_labels == b.output_labels, path
     elif inspect.isfunction(a) or inspect.isclass(a):
         assert a is b, path
     elif isinstance(a, BaseException):
         assert a.args == b.args, path
     elif type(a).__module__.startswith("sdctrl"):
-        skip = getattr(a, "_transient", ())
+        transient = getattr(a, "_transient", ())
         names = _attribute_names(a)
         assert names == _attribute_names(b), path
         for n in names:
-            if n not in skip and hasattr(a, n):
-                same(getattr(a, n), getattr(b, n), f"{path}.{n}")
+            if n not in transient and hasattr(a, n):
+                same(getattr(a, n), getattr(b, n), f"{path}.{n}", skip)
     else:
         assert a == b, f"{path}: {a!r} vs {b!r}"
 
