@@ -10,7 +10,6 @@ those before (FE modes, static corrections, a hybrid model's closed-loop FRF).
 from __future__ import annotations
 
 import copy
-import dataclasses
 import functools
 import importlib
 import inspect
@@ -25,7 +24,7 @@ import pytest
 import scipy.sparse as sp
 
 import sdctrl as sd
-from sdctrl._lib.frozen import FrozenState, _attribute_names
+from sdctrl._lib.frozen import FrozenState, attribute_names
 from sdctrl.testbeds import SENSORS, SHAKERS
 
 PACKAGES = ["sdctrl", "sdctrl.data", "sdctrl.identification", "sdctrl.modal", "sdctrl.fe",
@@ -85,8 +84,8 @@ def same(a, b, path="obj", skip=()):
         assert a.args == b.args, path
     elif type(a).__module__.startswith("sdctrl"):
         transient = getattr(a, "_transient", ())
-        names = _attribute_names(a)
-        assert names == _attribute_names(b), path
+        names = attribute_names(a)
+        assert names == attribute_names(b), path
         for n in names:
             if n not in transient and hasattr(a, n):
                 same(getattr(a, n), getattr(b, n), f"{path}.{n}", skip)
@@ -244,7 +243,7 @@ def test_every_public_class_round_trips(name):
     assert isinstance(obj, CLASSES[name])
     back = round_trip(obj)
     if isinstance(obj, FrozenState) and not isinstance(obj, Exception):
-        field = _attribute_names(obj)[0]
+        field = attribute_names(obj)[0]
         with pytest.raises(AttributeError):
             setattr(back, field, None)              # still immutable
     same(obj, copy.deepcopy(obj), name)             # deepcopy takes the same path

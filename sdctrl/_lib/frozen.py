@@ -22,7 +22,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-__all__ = ["FrozenState"]
+__all__ = ["FrozenState", "attribute_names"]
 
 
 class _ReadOnly:
@@ -76,7 +76,8 @@ def _decode(v):
     return v
 
 
-def _attribute_names(obj) -> list:
+def attribute_names(obj) -> list:
+    """Names of the instance attributes of ``obj`` (``__dict__`` and every ``__slots__``)."""
     names = list(getattr(obj, "__dict__", ()))
     for klass in type(obj).__mro__:
         slots = klass.__dict__.get("__slots__", ())
@@ -104,7 +105,7 @@ class FrozenState:
             Attribute name -> encoded value.
         """
         skip = self._transient
-        return {n: _encode(getattr(self, n)) for n in _attribute_names(self)
+        return {n: _encode(getattr(self, n)) for n in attribute_names(self)
                 if n not in skip and hasattr(self, n)}
 
     def __setstate__(self, state: dict) -> None:
@@ -118,5 +119,5 @@ class FrozenState:
         for n, v in state.items():
             object.__setattr__(self, n, _decode(v))
         for n in self._transient:
-            if n in _attribute_names(self):
+            if n in attribute_names(self):
                 object.__setattr__(self, n, {})
