@@ -9,14 +9,17 @@ frequencies, damping and expanded shapes), the ranking inherits the test's accur
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from sdctrl._lib.progress import progress_bar
-from sdctrl._lib.validate import check_band, check_scalar
+from sdctrl._lib.parallel import chunked, map_chunks
+from sdctrl._lib.validate import check_band, check_executor, check_scalar
 
 __all__ = ["Candidate", "PlacementStudy", "placement_study"]
+
+#: candidate bars per task of an executor
+CHUNK = 25
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,8 +140,58 @@ def _track(p_open: np.ndarray, p_closed: np.ndarray) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class _Loop:
+    """What every candidate's evaluation reads (shared by the tasks of an executor)."""
+
+    model: object
+    fe: object
+    band: tuple
+    out_idx: list
+    psd: object
+    kp: float
+    kv: float
+    criterion: str
+    p_open: np.ndarray
+    rms_open: np.ndarray | None = None
+
+
+def _measure(loop, m):
+    """Band-limited RMS of the chosen outputs of model ``m``."""
+    from sdctrl.closedloop._loops import rms
+
+    return rms(m.to_statespace()[loop.out_idx, :], loop.band, loop.psd)
+
+
+def _evaluate(bars, loop) -> list:
+    """``(bar, Candidate or None, reason or None)`` of each bar of a chunk (5.4)."""
+    out = []
+    for bar in bars:
+        try:
+            s = loop.fe.strut(*bar)
+        except ValueError as exc:
+            out.append((tuple(bar), None, str(exc)))
+            continue
+        cl = loop.model.with_feedback(s, s.T, kp=loop.kp, kv=loop.kv)
+        p = _track(loop.p_open, cl.poles)
+        freq = np.abs(p) / (2 * np.pi)
+        damp = -p.real / np.abs(p)
+        try:
+            r = _measure(loop, cl)
+        except ValueError as exc:
+            out.append((tuple(bar), None,
+                        f"closed loop with kv={loop.kv:g}, kp={loop.kp:g}: {exc}"))
+            continue
+        with np.errstate(invalid="ignore", divide="ignore"):
+            red = np.where(loop.rms_open > 0, 1 - r / loop.rms_open, 0.0)
+        score = float(np.mean(red)) if loop.criterion == "rms" else float(np.min(damp))
+        out.append((tuple(bar), Candidate(tuple(bar), freq, damp, r, red, score), None))
+    return out
+
+
 def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, psd=1.0,
-                    criterion: str = "rms", progress: bool | None = None) -> PlacementStudy:
+                    criterion: str = "rms", progress: bool | None = None,
+                    executor=None) -> PlacementStudy:
     """Rank candidate bars for a D-strut by closed-loop damping and RMS reduction.
 
     For each bar ``(a, b)``: ``s = fe.strut(a, b)``, the loop ``F = -kv s^T q' - kp s^T q``
@@ -172,6 +225,10 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     progress : bool or None
         Progress bar over the candidates; None (default) follows ``sdctrl.config.progress``
         (shown only on a terminal or in a notebook).
+    executor : concurrent.futures.Executor, optional
+        Evaluates the candidates in chunks of ``CHUNK`` bars (threads, processes, a Dask
+        client's ``get_executor()``: the model and the FE model are then scattered to the
+        workers once); the result is identical to the serial run's.
 
     Returns
     -------
@@ -186,7 +243,6 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
         No shapes on ``fe.dofs``, unknown outputs, bad band, no mode in the band, no
         candidate.
     """
-    from sdctrl.closedloop._loops import rms
     from sdctrl.fe import FEModel
     from sdctrl.modal._normal_model import NormalModeModel
 
@@ -204,37 +260,19 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     sensors = list(model.sensors)
     out_idx = [sensors.index(o) for o in _outputs(outputs, sensors)]
     candidates = _candidates(candidates, fe)
-
-    def measure(m):
-        G = m.to_statespace()[out_idx, :]
-        return rms(G, (lo, hi), psd)
-
+    executor = check_executor(executor)
     p_all = model.poles
     f_all = np.abs(p_all) / (2 * np.pi)
     p_open = p_all[(f_all >= lo) & (f_all <= hi) & (p_all.imag > 0)]
     if p_open.size == 0:
         raise ValueError(f"band: no mode of the model between {lo:g} and {hi:g} Hz")
-    rms_open = measure(model)
-    results, skipped = [], []
-    for bar in progress_bar(candidates, desc="D-strut placement", unit="bar", enabled=progress):
-        try:
-            s = fe.strut(*bar)
-        except ValueError as exc:
-            skipped.append((tuple(bar), str(exc)))
-            continue
-        cl = model.with_feedback(s, s.T, kp=kp, kv=kv)
-        p = _track(p_open, cl.poles)
-        freq = np.abs(p) / (2 * np.pi)
-        damp = -p.real / np.abs(p)
-        try:
-            r = measure(cl)
-        except ValueError as exc:
-            skipped.append((tuple(bar), f"closed loop with kv={kv:g}, kp={kp:g}: {exc}"))
-            continue
-        with np.errstate(invalid="ignore", divide="ignore"):
-            red = np.where(rms_open > 0, 1 - r / rms_open, 0.0)
-        score = float(np.mean(red)) if criterion == "rms" else float(np.min(damp))
-        results.append(Candidate(tuple(bar), freq, damp, r, red, score))
+    loop = _Loop(model, fe, (lo, hi), out_idx, psd, kp, kv, criterion, p_open)
+    loop = replace(loop, rms_open=_measure(loop, model))
+    done = map_chunks(_evaluate, chunked(candidates, CHUNK), loop, executor, progress,
+                      "D-strut placement", "chunk")
+    results = [c for chunk in done for _, c, _ in chunk if c is not None]
+    skipped = [(bar, why) for chunk in done for bar, c, why in chunk if c is None]
+    rms_open = loop.rms_open
     if not results:
         raise ValueError("candidates: none could be evaluated "
                          f"({skipped[0][1] if skipped else 'empty'})")

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.statespace import ss_frf
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
@@ -32,7 +33,7 @@ from sdctrl._lib.signals import INPUT_SUFFIX, as_statespace
 __all__ = ["FRF", "estimate_frf"]
 
 
-class FRF:
+class FRF(FrozenState):
     """Measured or computed frequency response functions of a MIMO structure.
 
     Parameters

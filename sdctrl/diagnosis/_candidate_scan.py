@@ -7,7 +7,8 @@
 2. **screen**: every candidate of every family at every size of its grid, by the Woodbury
    update (rank 1 or 3) on a subset of lines, in single precision, log-magnitude logLS --
    batched over candidates, in chunks that an executor may run anywhere (the chunks and
-   their order do not depend on the executor, so the ranking is identical);
+   their order do not depend on the executor, so the ranking is identical); what every
+   chunk reads (the data's lines) is shared, scattered once on a Dask client;
 3. **fits**: the best candidates of each family and overall are fitted again on all the data
    with the complex logLS (3.12): a bounded 1-D minimisation of ``log(base + size)`` from the
    best grid point, or (resonators) a least-squares fit of mass, frequency and damping.
@@ -21,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import least_squares, minimize_scalar
 
-from sdctrl._lib.progress import progress_bar
+from sdctrl._lib.parallel import dask_client, map_chunks, share
 from sdctrl._lib.threads import single_thread
 from sdctrl.diagnosis._candidates import families
 from sdctrl.diagnosis._global_effects import proposal
@@ -212,21 +213,9 @@ def _screen(S, placed, H, mode, executor, progress):
             G[name] = [x.astype(np.complex64)
                        for x in _transfers(S, placed, s, S.families[fi].group.beta)]
 
-    def tasks(sel):
-        out = []
-        for fi, (pos, cols) in sel.items():
-            fam = S.families[fi]
-            grid, extra, _ = grids[fi]
-            Gyk, Gkk, Gku = G[fam.group.name]
-            for a in range(0, pos.size, CHUNK):
-                p = pos[a:a + CHUNK]
-                m = fam.members[p]
-                ex = None if extra is None else (extra[0][p][:, cols], extra[1][p][:, cols])
-                out.append((fi, p, cols, {**base, "kind": fam.kind, "sizes": grid[p][:, cols],
-                                          "extra": ex, "Gyk": Gyk[m], "Gkk": Gkk[m],
-                                          "Gku": Gku[m]}))
-        return out
-
+    # on Dask the transfers are scattered once for both stages, tasks carry indices
+    scattered = dask_client(executor) is not None
+    shared = share(executor, {"base": base, "G": G if scattered else {}})
     best = {fi: (np.full(S.families[fi].size, np.inf), np.zeros(S.families[fi].size, int))
             for fi in grids}
     stage1 = {fi: (np.arange(S.families[fi].size), g[2]) for fi, g in grids.items()}
@@ -237,8 +226,9 @@ def _screen(S, placed, H, mode, executor, progress):
                 n2 = min(c.size, max(FINE_MIN, int(np.ceil(FINE_FRAC * c.size))))
                 sel[fi] = (np.sort(np.argsort(c, kind="stable")[:n2]),
                            np.arange(grids[fi][0].shape[1]))
-        tl = tasks(sel)
-        res = _run(screen_chunk, [t for *_, t in tl], executor, progress, "screen")
+        tl = _screen_chunks(S, G, grids, sel, scattered)
+        res = map_chunks(_screen_task, [t for *_, t in tl], shared, executor, progress,
+                         "screen")
         for (fi, p, cols, _), sc in zip(tl, res):
             j = np.argmin(sc, axis=1)
             c = sc[np.arange(p.size), j]
@@ -248,12 +238,38 @@ def _screen(S, placed, H, mode, executor, progress):
     return best, grids
 
 
-def _run(fn, tasks, executor, progress, desc):
-    if executor is None:
-        it = map(fn, tasks)
-    else:
-        it = executor.map(fn, tasks)
-    return list(progress_bar(it, total=len(tasks), desc=desc, enabled=progress))
+def _screen_chunks(S, G, grids, sel, scattered) -> list:
+    """``(family, positions, grid columns, task)`` of the screen's chunks of ``sel``; a task
+    holds its candidates' transfers, or (``scattered``) their indices in the shared ones."""
+    out = []
+    for fi, (pos, cols) in sel.items():
+        fam = S.families[fi]
+        grid, extra, _ = grids[fi]
+        Gyk, Gkk, Gku = G[fam.group.name]
+        for a in range(0, pos.size, CHUNK):
+            p = pos[a:a + CHUNK]
+            m = fam.members[p]
+            ex = None if extra is None else (extra[0][p][:, cols], extra[1][p][:, cols])
+            t = {"kind": fam.kind, "sizes": grid[p][:, cols], "extra": ex}
+            if scattered:
+                t.update(group=fam.group.name, m=m)
+            else:
+                t.update(Gyk=Gyk[m], Gkk=Gkk[m], Gku=Gku[m])
+            out.append((fi, p, cols, t))
+    return out
+
+
+def _screen_task(chunk, shared):
+    t = {**shared["base"], **chunk}
+    if "group" in chunk:                     # transfers scattered once (Dask)
+        Gyk, Gkk, Gku = shared["G"][t.pop("group")]
+        m = t.pop("m")
+        t.update(Gyk=Gyk[m], Gkk=Gkk[m], Gku=Gku[m])
+    return screen_chunk(t)
+
+
+def _fit_task(t, lines):
+    return fit_task({**lines, **t})
 
 
 def fit_task(t) -> tuple:
@@ -384,11 +400,12 @@ def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
         Gyk, Gkk, Gku = _single(S, placed, fam.group.beta[c])
         grid, extra, _ = grids[fi]
         j = int(best[fi][1][pos])
-        t = {"H0": H, "Hd": placed.Hd, "s": placed.s, "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
+        t = {"Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
              "kind": fam.kind, "base": float(fam.base[pos]), "bounds": fam.bounds[pos],
              "grid": grid[pos], "best": j}
         if extra is not None:
             t["omega"], t["zeta"] = float(extra[0][pos, j]), float(extra[1][pos, j])
         fits.append(t)
-    res = _run(fit_task, fits, executor, progress, "fits")
+    lines = {"H0": H, "Hd": placed.Hd, "s": placed.s}
+    res = map_chunks(_fit_task, fits, lines, executor, progress, "fits")
     return [_describe(S, S.families[fi], pos, *r) for (fi, pos), r in zip(fin, res)]

@@ -23,6 +23,7 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl.fe._elements import DIRECTIONS, assemble_coo, member_matrices
 from sdctrl.fe._parameters import DEFAULT_BOUNDS, Parameter
 
@@ -39,7 +40,7 @@ def _names(x, what: str) -> tuple[str, ...] | None:
 
 
 @dataclass(frozen=True, eq=False)
-class Assembly:
+class Assembly(FrozenState):
     """How :func:`~sdctrl.fe.assemble` built a model: element groups and lumped masses.
 
     Parameters
@@ -258,8 +259,12 @@ class Assembly:
         return sp.coo_matrix((vals[ok], (idx[ok], idx[ok])), shape=(self.N, self.N)).tocsr()
 
 
-class ElementGroups:
-    """:class:`~sdctrl.fe.FEModel` methods over its element groups and nodes (mixin)."""
+class ElementGroups(FrozenState):
+    """:class:`~sdctrl.fe.FEModel` methods over its element groups and nodes (mixin).
+
+    Also how an FE model pickles (:class:`~sdctrl._lib.frozen.FrozenState`): its ``_cache``
+    of factorisations (``SuperLU``) is left out and rebuilt on first use.
+    """
 
     __slots__ = ()
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
     as_array,
@@ -33,7 +34,7 @@ __all__ = ["ComplexModeModel", "frf_array", "scale_residues", "to_statespace"]
 
 
 @dataclass(frozen=True, eq=False)
-class ComplexModeModel:
+class ComplexModeModel(FrozenState):
     """Identified complex-mode model (3.7), displacement/force residues.
 
     Parameters

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.extrema import relative_maxima
 from sdctrl.identification._trial_correlation import TrialCorrelations, uniform_grid
 from sdctrl.identification._noise import projector_diagonal
 from sdctrl.identification._residues import basis, pole_from_params, stack
@@ -159,8 +160,6 @@ class ResidualScan:
         list of (float, float)
             ``(frequency Hz, damping ratio)``, strongest first.
         """
-        from scipy.signal import argrelmax
-
         Q, r = ev["lsq"].Q, ev["r"]
         sig2 = self.noise.field(ev)
         prob = self.prob
@@ -169,7 +168,7 @@ class ResidualScan:
         found = []                                # (ratio, line index, damping)
         for mult, stride in LEVELS:
             idx, level, zlev = self._level(corr, Q, r, sig2, mult, stride)
-            pk = argrelmax(level, order=2)[0]
+            pk = relative_maxima(level, order=2)
             found += [(level[i], idx[i], zlev[i]) for i in pk if level[i] > 1.0]
         return self._suppress(found, tried, max_add)
 

@@ -200,14 +200,14 @@ class NoiseTest:
         -------
         ndarray, shape (...)
         """
-        from scipy.stats import chi2
+        from scipy.special import chdtri     # chi2.isf, without importing scipy.stats
 
         npp = self.prob.npp
         s1 = np.sum(s, axis=-1)
         s2 = np.maximum(np.sum(s * s, axis=-1), 1e-300)
         g = s2 / np.maximum(s1, 1e-300)
         h = np.maximum(npp * s1 * s1 / s2, 1e-3)
-        return self.signif * g * chi2.isf(1e-3 / max(self.nf, 1), df=h)
+        return self.signif * g * chdtri(h, 1e-3 / max(self.nf, 1))
 
     def significance(self, n: int, ev) -> np.ndarray:
         """Cost increase when each pole is removed, over its noise threshold (>1 keeps).

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.extrema import peaks_with_prominence
 from sdctrl.identification._residues import pole_from_params
 
 __all__ = ["indicator_functions", "initial_poles", "peak_candidates"]
@@ -97,8 +98,6 @@ def peak_candidates(freq: np.ndarray, H: np.ndarray, n_sv: int = 4, prominence: 
     strength : ndarray
         Prominence in dB (used to rank candidates).
     """
-    from scipy.signal import find_peaks
-
     curves = indicator_functions(H, n_sv)
     nf = freq.size
     df = float(np.median(np.diff(freq))) if nf > 1 else 1.0
@@ -108,8 +107,8 @@ def peak_candidates(freq: np.ndarray, H: np.ndarray, n_sv: int = 4, prominence: 
         if not np.any(c > 0):
             continue
         logc = 20 * np.log10(np.maximum(c, c.max() * 1e-300 + 1e-300))
-        idx, props = find_peaks(logc, prominence=prominence)
-        for i, prom in zip(idx, props["prominences"]):
+        idx, proms = peaks_with_prominence(logc, prominence)    # scipy's find_peaks
+        for i, prom in zip(idx, proms):
             y0, y1, y2 = logc[i - 1], logc[i], logc[i + 1]
             den = y0 - 2 * y1 + y2
             shift = 0.5 * (y0 - y2) / den if den < 0 else 0.0

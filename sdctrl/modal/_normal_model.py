@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl.modal._operations import modified, poles, with_feedback
 from sdctrl._lib.statespace import correction_filter, modal_states, second_order
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
@@ -44,7 +45,7 @@ __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with
 
 
 @dataclass(frozen=True, eq=False)
-class NormalModeModel:
+class NormalModeModel(FrozenState):
     """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u``.
 
     With a low-frequency correction ``F`` the displacement output is

@@ -19,11 +19,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.statespace import modal_states, second_order, ss_frf
 from sdctrl._lib.display import MAX_ROWS, markdown_table, one_line
-from sdctrl._lib.validate import as_array, check_freq, check_int, check_seed, readonly
+from sdctrl._lib.validate import (
+    as_array,
+    check_executor,
+    check_freq,
+    check_int,
+    check_seed,
+    readonly,
+)
 from sdctrl._lib.signals import signal_names
 from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
+from sdctrl.robust._response_bounds import envelope_of_draws
 
 __all__ = [
     "CompactLFT",
@@ -89,7 +98,7 @@ class CompactLFT:
 
 
 @dataclass(frozen=True, eq=False)
-class UncertainModel:
+class UncertainModel(FrozenState):
     """Normal mode model with bounded real parametric uncertainty, eq. (5.5).
 
     Parameters
@@ -313,7 +322,8 @@ class UncertainModel:
         """
         return [self.perturbed(d) for d in self.sample_deltas(n, seed)]
 
-    def frf_envelope(self, freq, n_samples: int = 200, seed=0, max_vertices: int = 256):
+    def frf_envelope(self, freq, n_samples: int = 200, seed=0, max_vertices: int = 256,
+                     executor=None):
         """Min/max magnitude and phase of the FRF over random samples and box vertices.
 
         Parameters
@@ -327,6 +337,10 @@ class UncertainModel:
         max_vertices : int
             All ``2**nblocks`` vertices are used when not more than this, else that many random
             ones (0: none).
+        executor : concurrent.futures.Executor, optional
+            Evaluates the draws in chunks (threads, processes, a Dask client's
+            ``get_executor()``: the model is then scattered once); the envelope is
+            identical to the serial run's.
 
         Returns
         -------
@@ -337,7 +351,7 @@ class UncertainModel:
         f = check_freq(freq, "freq")
         n_samples = check_int(n_samples, "n_samples", minimum=0, maximum=MAX_DRAWS)
         max_vertices = check_int(max_vertices, "max_vertices", minimum=0, maximum=MAX_DRAWS)
-        w = 2 * np.pi * np.asarray(f, float)
+        executor = check_executor(executor)
         nb = len(self.params)
         rng = np.random.default_rng(check_seed(seed))
         if nb == 0:
@@ -347,23 +361,7 @@ class UncertainModel:
         else:
             verts = rng.choice([-1.0, 1.0], size=(max_vertices, nb))
         ds = np.vstack([verts, rng.uniform(-1, 1, size=(n_samples, nb))])
-        nom = self.nominal
-        H0 = ss_frf(nom.A, nom.B, nom.C, nom.D, w)
-        mag_min = np.abs(H0).copy()
-        mag_max = mag_min.copy()
-        ph_min = np.zeros_like(mag_min)
-        ph_max = np.zeros_like(mag_min)
-        for d in ds:
-            s = self.perturbed(d)
-            H = ss_frf(s.A, s.B, s.C, s.D, w)
-            a = np.abs(H)
-            mag_min, mag_max = np.minimum(mag_min, a), np.maximum(mag_max, a)
-            dp = np.angle(H * np.conj(H0))
-            ph_min, ph_max = np.minimum(ph_min, dp), np.maximum(ph_max, dp)
-        p0 = np.unwrap(np.angle(H0), axis=0)
-        return {"freq": np.asarray(f, float), "nominal": H0, "mag_min": mag_min,
-                "mag_max": mag_max, "phase_min": np.degrees(p0 + ph_min),
-                "phase_max": np.degrees(p0 + ph_max)}
+        return envelope_of_draws(self, f, ds, executor)
 
 
 def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainModel:

@@ -61,8 +61,21 @@ class Codec:
             obj = getattr(obj, part)
         return obj
 
+    def __reduce__(self):
+        # pickled by name, like a function (its to_fields/from_fields are closures): the
+        # unpickling process imports sdctrl.storage, which registers the built-in codecs
+        return (_registered_codec, (self.name,))
+
 
 CODECS: dict[str, Codec] = {}
+
+
+def _registered_codec(name: str) -> Codec:
+    """The codec registered under ``name`` (how a pickled :class:`Codec` comes back)."""
+    if name not in CODECS:
+        raise ValueError(f"codec {name!r} is not registered in this process: register it "
+                         "before unpickling objects that refer to it")
+    return CODECS[name]
 
 
 def register(codec: Codec) -> Codec:

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.display import markdown_table
@@ -339,7 +340,7 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
 
 
 @dataclass(frozen=True, eq=False)
-class CostProblem:
+class CostProblem(FrozenState):
     """What cost maps need, lean enough to pickle for executors (and to save with
     :func:`sdctrl.save`): the reduced model, the data's lines and ``log |H|``, the parameters.
 

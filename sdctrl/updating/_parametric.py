@@ -21,12 +21,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
+from sdctrl._lib.frozen import FrozenState
 
 __all__ = ["ReducedModel", "damping_from_modal", "perturbation", "reduced_model"]
 
 
 @dataclass(frozen=True, eq=False)
-class ReducedModel:
+class ReducedModel(FrozenState):
     """Parametric reduced model (4.17) for given sensors and actuators.
 
     Parameters

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl.fe._eigen import RIGID_RTOL, diagonal_scale
 from sdctrl.fe._parameters import load_shapes
 from sdctrl.fe._static import principal_static_modes
@@ -74,7 +75,7 @@ def _project(T, X):
 
 
 @dataclass(frozen=True, eq=False)
-class ReducedBasis:
+class ReducedBasis(FrozenState):
     """Ritz basis ``T`` (N, n) of an FE model for reanalysis (4.17), mass-orthonormal.
 
     The first ``n_modes`` columns are normal modes of the model (rigid-body ones first when

@@ -1,0 +1,197 @@
+"""What a user's call costs: fresh-process figures beside the warm ones (issue 27).
+
+Plain script::
+
+    python benchmarks/bench_cold.py [--runs 3] [--cases ema,fe] [--levels 261]
+
+A unit benchmark measures a warm call (modules imported, caches filled); a user who runs
+``python -c "import sdctrl; ..."`` also pays the imports and every first-call set-up.  Each
+case here is timed both ways, in one run, beside its reference timed the same ways:
+
+``ema``  ``sd.identify`` on sdypy-EMA's own single-reference case (28 outputs x 1 input x
+         2000 lines, 10 modes, noise-free receptance; :func:`bench_identify.ema_case`)
+         against sdypy-EMA's LSCF + LSFD (order 40, given the true frequencies);
+``fe``   ``sd.FEModel(M, K).modes(20)`` of the ~1e5-DOF lattice tower of
+         :mod:`bench_fe` against a plain ``scipy.sparse.linalg.eigsh(K, M=M, sigma)``.
+
+Fresh figures: a new interpreter per run (``python -c``), which loads the case's arrays from
+an ``.npz`` (not timed) and then times, from its first line, ``import`` + building the
+inputs + the call (the user's cost); warm figures: the same call repeated in this process.
+Runs alternate between the candidates (the machine's load drifts); medians are printed as a
+table of seconds and ratios sdctrl / reference.  sdypy-EMA (``pip install sdypy-ema``) is a
+benchmark-only dependency.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+
+warnings.simplefilter("ignore")
+
+# --- what each fresh process runs (timed from its first line) ----------------------------
+PRELUDE = """
+import time, warnings
+t0 = time.perf_counter()
+warnings.simplefilter("ignore")
+"""
+
+CHILD = {
+    "sdctrl identify": PRELUDE + """
+import sdctrl as sd
+t1 = time.perf_counter()
+frf = sd.FRF(freq, H, sensors=[f"S{i}" for i in range(H.shape[1])], actuators=["A0"])
+cm = sd.identify(frf, progress=False)
+t2 = time.perf_counter()
+""",
+    "EMA lscf+lsfd": PRELUDE + """
+from sdypy import EMA
+import contextlib, io
+t1 = time.perf_counter()
+with contextlib.redirect_stderr(io.StringIO()):
+    m = EMA.Model(frf=H[:, :, 0].T, freq=freq, lower=freq[0], upper=freq[-1],
+                  pol_order_high=40, frf_form="receptance")
+    m.get_poles(method="lscf", show_progress=False)
+    m.select_closest_poles(list(approx), f_window=4)
+    m.get_constants(method="lsfd")
+t2 = time.perf_counter()
+""",
+    "sdctrl FEModel.modes": PRELUDE + """
+import sdctrl as sd
+t1 = time.perf_counter()
+f, phi = sd.FEModel(M, K).modes(20)
+t2 = time.perf_counter()
+""",
+    "scipy eigsh": PRELUDE + """
+import scipy.sparse.linalg as spla
+t1 = time.perf_counter()
+lam, phi = spla.eigsh(K.tocsc(), k=20, M=M.tocsc(), sigma=sigma, which="LM")
+t2 = time.perf_counter()
+""",
+}
+
+LOADER = """
+import numpy as np, scipy.sparse as sp
+_d = np.load({path!r})
+freq, H, approx = _d.get("freq"), _d.get("H"), _d.get("approx")
+sigma = float(_d["sigma"]) if "sigma" in _d else None
+def _m(k):
+    return sp.csr_matrix((_d[k + "_data"], _d[k + "_indices"], _d[k + "_indptr"]),
+                         shape=tuple(_d[k + "_shape"])) if k + "_data" in _d else None
+M, K = _m("M"), _m("K")
+"""
+REPORT = "\nprint(repr((t1 - t0, t2 - t0)))\n"
+
+
+def fresh(name: str, path: str) -> tuple[float, float]:
+    """(import seconds, total seconds) of ``name`` in a new interpreter (data load excluded:
+    the loader runs before the timed code starts, but in the same process)."""
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    code = LOADER.format(path=path) + CHILD[name] + REPORT
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, check=True).stdout
+    return eval(out.strip().splitlines()[-1])
+
+
+def warm(name: str, data: dict) -> float:
+    """Seconds of the call alone in this process (after one untimed call)."""
+    ns = dict(data)
+    body = CHILD[name]
+    exec(body, ns)                               # imports and first-call set-up
+    exec(body, ns)
+    return ns["t2"] - ns["t1"]
+
+
+# --- the cases --------------------------------------------------------------------------
+def ema_data() -> dict:
+    from bench_identify import ema_case
+
+    case = ema_case()
+    return {"freq": case.freq, "H": case.H, "approx": np.abs(case.lam) / (2 * np.pi)}
+
+
+def fe_data(levels: int) -> dict:
+    from bench_fe import MAT, SEC, tower
+
+    from sdctrl.fe import assemble
+
+    nodes, els, bc = tower(8, levels)
+    fe = assemble(nodes, els, MAT, SEC, bc=bc)
+    sigma = -1e-6 * float(np.median(fe.K.diagonal() / fe.M.diagonal()))
+    return {"M": fe.M.tocsr(), "K": fe.K.tocsr(), "sigma": sigma}
+
+
+def save(data: dict, path: str) -> None:
+    out = {}
+    for k, v in data.items():
+        if hasattr(v, "tocsr"):
+            v = v.tocsr()
+            out.update({f"{k}_data": v.data, f"{k}_indices": v.indices,
+                        f"{k}_indptr": v.indptr, f"{k}_shape": np.array(v.shape)})
+        else:
+            out[k] = v
+    np.savez(path, **out)
+
+
+def run(title: str, names: tuple, data: dict, runs: int, tmp: str) -> list:
+    path = os.path.join(tmp, "case.npz")
+    save(data, path)
+    fr = {n: [] for n in names}
+    wa = {n: [] for n in names}
+    for r in range(runs):
+        for n in (names if r % 2 == 0 else names[::-1]):
+            fr[n].append(fresh(n, path))
+            wa[n].append(warm(n, data))
+    rows = []
+    for n in names:
+        imp, tot = np.median(np.array(fr[n]), axis=0)
+        rows.append((title, n, float(imp), float(tot), float(np.median(wa[n]))))
+    return rows
+
+
+def table(rows: list) -> None:
+    print(f"\n{'case':34s} {'candidate':22s} {'import':>8s} {'fresh':>8s} {'warm':>8s}")
+    for title, n, imp, tot, w in rows:
+        print(f"{title:34s} {n:22s} {imp:8.2f} {tot:8.2f} {w:8.3f}")
+    print("\nratios sdctrl / reference (fresh process, and warm):")
+    for i in range(0, len(rows), 2):
+        a, b = rows[i], rows[i + 1]
+        print(f"  {a[0]:34s} fresh {a[3] / b[3]:6.2f}   warm {a[4] / b[4]:6.2f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--cases", default="ema,fe")
+    ap.add_argument("--levels", type=int, default=261, help="tower levels (261 -> ~1e5 DOFs)")
+    args = ap.parse_args()
+    print(f"load average at start: {os.getloadavg()}  (2 cores)")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for case in args.cases.split(","):
+            t = time.perf_counter()
+            if case == "ema":
+                rows += run("EMA case 28x1x2000", ("sdctrl identify", "EMA lscf+lsfd"),
+                            ema_data(), args.runs, tmp)
+            elif case == "fe":
+                data = fe_data(args.levels)
+                rows += run(f"FE modes(20), N={data['M'].shape[0]}",
+                            ("sdctrl FEModel.modes", "scipy eigsh"), data, args.runs, tmp)
+            print(f"  {case}: {time.perf_counter() - t:.0f} s")
+    table(rows)
+    print(f"load average at end: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
