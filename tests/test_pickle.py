@@ -233,6 +233,8 @@ def _instance(name):
         "Document": document, "Section": lambda: document().sections[0],
         "IdentificationWarning": lambda: CLASSES["IdentificationWarning"]("poles moved"),
         "StorageWarning": lambda: CLASSES["StorageWarning"]("old file"),
+        "ImpactWarning": lambda: CLASSES["ImpactWarning"]("double hit in hit 2"),
+        "TestStructure": lambda: sd.testbeds.structure("plate"),
     }
     return makers[name]()
 

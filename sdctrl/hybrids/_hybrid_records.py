@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 
 __all__ = ["KINDS", "HybridConstruction", "ModePairing", "ResidualChoice", "pairing_report"]
@@ -22,7 +23,7 @@ KINDS = ("measured", "fe", "residual", "static")
 
 
 @dataclass(frozen=True, eq=False)
-class ModePairing:
+class ModePairing(FrozenState):
     """FE/test mode pairing of the kept measured modes, one row each (5.1.1).
 
     Attributes
@@ -51,7 +52,7 @@ class ModePairing:
 
 
 @dataclass(frozen=True, eq=False)
-class ResidualChoice:
+class ResidualChoice(FrozenState):
     """The residual terms a hybrid kept (:func:`~sdctrl.hybrids._hybrid_basis.select_residual`).
 
     Attributes
@@ -72,7 +73,7 @@ class ResidualChoice:
 
 
 @dataclass(frozen=True, eq=False)
-class HybridConstruction:
+class HybridConstruction(FrozenState):
     """What :func:`sdctrl.hybrid` found while building the model (5.1.1, 4.7).
 
     Read as ``HybridModel.construction``; None for a hybrid made from an FE-derived model.

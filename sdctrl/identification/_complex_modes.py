@@ -69,11 +69,9 @@ class ComplexModeModel(FrozenState):
         ``nfev``, ``converged``, ``compress_rank``, ``interrupted``...).
         Diagnostics of the fit (iterations, warnings, optimiser).
     exponential_tau : float, optional
-        Time constant (s) of the exponential window ``exp(-t/tau)`` of the data
-        (``FRF.exponential_tau``, impact tests) the poles are corrected for: the window added
-        ``1/tau`` (rad/s) to every decay rate, :func:`~sdctrl.identify` removed it
-        (``poles.real += 1/tau``), so ``poles``, ``frequency`` and ``damping`` are those of the
-        structure; None when no correction was applied.
+        Time constant (s) of the data's exponential window ``exp(-t/tau)`` (impact tests): it
+        added ``1/tau`` rad/s to every decay rate, :func:`~sdctrl.identify` removed it
+        (``poles.real += 1/tau``); None when no correction was applied.
     statistics : FitStatistics, optional
         Covariance of the poles and residues under the test's noise (3.56)-(3.59), set by
         :func:`~sdctrl.identify`; None for a model without statistics.

@@ -11,13 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 
 __all__ = ["SearchDiagnostics", "Stabilisation"]
 
 
 @dataclass(frozen=True, eq=False)
-class Stabilisation:
+class Stabilisation(FrozenState):
     """LSCF poles of every model order, the input of :func:`sdctrl.plot.stabilisation`.
 
     Attributes
@@ -36,7 +37,7 @@ class Stabilisation:
 
 
 @dataclass(frozen=True, eq=False)
-class SearchDiagnostics:
+class SearchDiagnostics(FrozenState):
     """How the pole search of :func:`sdctrl.identify` went (3.18)-(3.19).
 
     Every field may be None in files written before it existed.

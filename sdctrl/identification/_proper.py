@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_collocated
@@ -38,7 +39,7 @@ POLE_RANGE = 1e150
 
 
 @dataclass(frozen=True, eq=False)
-class Properness:
+class Properness(FrozenState):
     """How :func:`normal_modes` built a normal-mode model from complex modes (3.3).
 
     Read as ``nm.properness``; None for models built otherwise (matrices, FE, hybrid).
