@@ -40,6 +40,10 @@ PROBE_EVALS = 40
 #: largest standard deviation of ``ln zeta`` of a resolved pole narrower than the line
 #: spacing: its damping is then more than two standard deviations above zero
 RESOLVED_STD = 0.5
+#: most poles kept on each side of the band
+MAX_OUT = 6
+#: trial frequencies of the grid that places a further out-of-band pole
+OOB_GRID = 12
 
 
 class AutoSelection:
@@ -192,12 +196,23 @@ class AutoSelection:
         return np.array(ok, int)
 
     def _rejected(self, w, z, side, info, ev):
-        """{index: reason} of poles at a bound, fitting noise or filling in."""
+        """{index: reason} of poles at a bound, fitting noise or filling in.
+
+        An out-of-band pole is judged by its significance alone unless it is pushed
+        to a frequency bound: at a damping bound it still carries the tail of a mode
+        beyond the band, which no line resolves.
+        """
         f = w / (2 * np.pi)
         reasons = {}
         edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
                               (self.fband[1] - f < 0.5 * self.df))
-        for j in np.flatnonzero(info.get("at_bound", np.zeros(w.size, bool)) | edge):
+        at_bound = info.get("at_bound", np.zeros(w.size, bool)) & (side == 0)
+        # out of band: at the edge it stands for an in-band mode, at the far bound (a
+        # factor 4 from the edge) for what the asymptotic terms E, F/s^2 carry
+        lo, hi = self.fband[0] * (1 - 1e-6), self.fband[1] * (1 + 1e-6)
+        at_edge = ((side < 0) & ((f > lo) | (f < lo / 4 * (1 + 2e-6)))) | \
+                  ((side > 0) & ((f < hi) | (f > hi * 4 * (1 - 2e-6))))
+        for j in np.flatnonzero(at_bound | edge | at_edge):
             reasons[j] = "did not converge (pushed to a bound)"
         for j in self._unresolved(w, z, side, ev, reasons):
             reasons[j] = (f"noise fitting (half-power bandwidth below {self.min_bw:g} line "
@@ -214,18 +229,16 @@ class AutoSelection:
         from zero; a lightly damped mode under-resolved by the lines but well above the
         noise has its damping set by the lines on its flanks.  In band, a narrow pole is
         kept when its damping is significantly above zero, ``std(ln zeta)`` (3.56) below
-        :data:`RESOLVED_STD`; out of band (no lines near it) the bandwidth rule applies
-        alone.
+        :data:`RESOLVED_STD`.  Out of band no line resolves a peak whatever its
+        damping: the rule does not apply there (significance alone judges).
         """
         f = w / (2 * np.pi)
-        narrow = [j for j in np.flatnonzero(2 * z * f < self.min_bw * self.df)
-                  if j not in reasons]
-        check = [j for j in narrow if side[j] == 0]
+        check = [j for j in np.flatnonzero((2 * z * f < self.min_bw * self.df) & (side == 0))
+                 if j not in reasons]
         if not check:
-            return narrow
+            return []
         std = self.noise.log_damping_std(w, z, ev, check)
-        resolved = {j for j, sj in zip(check, std) if sj < RESOLVED_STD}
-        return [j for j in narrow if j not in resolved]
+        return [j for j, sj in zip(check, std) if not sj < RESOLVED_STD]
 
     def _drop_weak_candidates(self, w, z, side, pending):
         """Initial candidates far below the noise threshold at their picked position
@@ -242,31 +255,68 @@ class AutoSelection:
         return w[keep], z[keep], side[keep], pending[keep]
 
     def _out_of_band(self, state, tried_side):
-        """Modes just outside the band (their tails distort the in-band residual),
-        retried on each side whenever the number of in-band poles has changed; returns
-        the new state, or None when no trial was kept."""
+        """Poles just outside the band (the tails of modes there distort the in-band
+        residual): one new pole per side and pass, passes repeated while a side keeps
+        significant poles (at most :data:`MAX_OUT` per side; a mode just outside one edge
+        dominates the residual, and poles fitted to it from the other side would pile up
+        at their far bound); a side is retried whenever the numbers of in-band poles or
+        of poles have changed since its last failed trial.  Returns the new state, or None when no
+        pole was added."""
         changed = None
-        for sd in (-1, 1):
-            w, z, side = state[:3]
-            nin = int(np.count_nonzero(side == 0))
-            if tried_side[sd] == nin or np.any(side == sd):
-                continue
-            tried_side[sd] = nin
-            f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
-            wn = np.concatenate([w, [2 * np.pi * f0]])
-            zn = np.concatenate([z, [0.01]])
-            sn = np.concatenate([side, [sd]])
-            new = np.array([wn.size - 1])
-            w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=new)
-            if not self._accept(w2, z2, ev2, info2, new, sn).size:
-                continue
-            w2, z2, ev2, info2 = self.fit(w2, z2, sn)
-            if self._accept(w2, z2, ev2, info2, new, sn).size:
-                self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
-                                 "out-of-band mode " + ("below" if sd < 0 else "above")))
-                state = changed = (w2, z2, sn, ev2, info2)
-                self.best = state
-        return changed
+        while True:
+            added = False
+            for sd in (-1, 1):
+                w, z, side = state[:3]
+                key = (int(np.count_nonzero(side == 0)), w.size)
+                if tried_side[sd] == key or np.count_nonzero(side == sd) >= MAX_OUT:
+                    continue
+                new = self._try_side(state, sd)
+                if new is None:
+                    tried_side[sd] = key
+                    continue
+                state = changed = self.best = new
+                added = True
+            if not added:
+                return changed
+
+    def _oob_start(self, state, sd):
+        """Starting frequency (Hz) of a new pole on side ``sd``: the first one just
+        outside the band edge, the next ones at the best of a geometric grid between the
+        edge and the far bound of the search (band edge / 4 or x 4) by the cost of the
+        fit with the trial pole added (the others fixed)."""
+        w, z, side = state[:3]
+        edge = self.fband[0] if sd < 0 else self.fband[1]
+        if not np.any(side == sd):
+            return edge * (0.97 if sd < 0 else 1.03)
+        grid = edge * (0.97 if sd < 0 else 1.03) * np.geomspace(1.0, 0.26 if sd < 0 else 3.8,
+                                                                OOB_GRID)
+        best, fbest = np.inf, grid[0]
+        for f0 in grid:
+            x = np.concatenate([np.log(np.append(w, 2 * np.pi * f0)),
+                                np.log(np.append(z, 0.01))])
+            cost = self.prob.evaluate(x)["cost"]
+            if cost < best:
+                best, fbest = cost, f0
+        return fbest
+
+    def _try_side(self, state, sd):
+        """One new pole on side ``sd``: probe, then full fit; the new state if it is kept
+        (converged away from the band edge and significant), else None."""
+        w, z, side = state[:3]
+        f0 = self._oob_start(state, sd)
+        wn = np.concatenate([w, [2 * np.pi * f0]])
+        zn = np.concatenate([z, [0.01]])
+        sn = np.concatenate([side, [sd]])
+        new = np.array([wn.size - 1])
+        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=new)
+        if not self._accept(w2, z2, ev2, info2, new, sn).size:
+            return None
+        w2, z2, ev2, info2 = self.fit(w2, z2, sn)
+        if not self._accept(w2, z2, ev2, info2, new, sn).size:
+            return None
+        self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
+                         "out-of-band mode " + ("below" if sd < 0 else "above")))
+        return w2, z2, sn, ev2, info2
 
     def _add_missed(self, state, cand, reason="residual peak"):
         """Fit the candidates of the residual scan (or pending initial candidates); the
@@ -322,7 +372,7 @@ class AutoSelection:
             new = self._add_missed(state, list(zip(w[pending] / (2 * np.pi), z[pending])),
                                    "peak of the indicator functions")
             state = self.best = state if new is None else new
-        tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
+        tried_side = {-1: None, 1: None}     # (in-band poles, poles) at the last failed trial
         for _ in range(rounds):
             w, z, side, ev, info = state
             if bar is not None:
