@@ -280,14 +280,13 @@ class AutoSelection:
                 return changed
 
     def _oob_start(self, state, sd):
-        """Starting frequency (Hz) of a new pole on side ``sd``: the first one just
-        outside the band edge, the next ones at the best of a geometric grid between the
-        edge and the far bound of the search (band edge / 4 or x 4) by the cost of the
-        fit with the trial pole added (the others fixed)."""
+        """Starting frequency (Hz) of a new pole on side ``sd``: the best of a geometric
+        grid between just outside the band edge and the far bound of the search (band
+        edge / 4 or x 4) by the cost of the fit with the trial pole added (the others
+        fixed); from the edge alone, a probe for modes well beyond it ends at the far
+        bound."""
         w, z, side = state[:3]
         edge = self.fband[0] if sd < 0 else self.fband[1]
-        if not np.any(side == sd):
-            return edge * (0.97 if sd < 0 else 1.03)
         grid = edge * (0.97 if sd < 0 else 1.03) * np.geomspace(1.0, 0.26 if sd < 0 else 3.8,
                                                                 OOB_GRID)
         best, fbest = np.inf, grid[0]
