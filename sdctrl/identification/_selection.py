@@ -31,7 +31,7 @@ import numpy as np
 
 from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
-from sdctrl.identification._search import search_poles
+from sdctrl.identification._search import OUT_FACTOR, search_poles
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
 
@@ -40,7 +40,7 @@ PROBE_EVALS = 40
 #: largest standard deviation of ``ln zeta`` of a resolved pole narrower than the line
 #: spacing: its damping is then more than two standard deviations above zero
 RESOLVED_STD = 0.5
-#: most poles kept on each side of the band
+#: most poles added on each side of the band
 MAX_OUT = 6
 #: trial frequencies of the grid that places a further out-of-band pole
 OOB_GRID = 12
@@ -79,6 +79,7 @@ class AutoSelection:
         self.warn = warn
         self.tried = []
         self.best = None
+        self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -208,10 +209,10 @@ class AutoSelection:
                               (self.fband[1] - f < 0.5 * self.df))
         at_bound = info.get("at_bound", np.zeros(w.size, bool)) & (side == 0)
         # out of band: at the edge it stands for an in-band mode, at the far bound (a
-        # factor 4 from the edge) for what the asymptotic terms E, F/s^2 carry
+        # factor OUT_FACTOR from the edge) for what the asymptotic terms E, F/s^2 carry
         lo, hi = self.fband[0] * (1 - 1e-6), self.fband[1] * (1 + 1e-6)
-        at_edge = ((side < 0) & ((f > lo) | (f < lo / 4 * (1 + 2e-6)))) | \
-                  ((side > 0) & ((f < hi) | (f > hi * 4 * (1 - 2e-6))))
+        at_edge = ((side < 0) & ((f > lo) | (f < lo / OUT_FACTOR * (1 + 2e-6)))) | \
+                  ((side > 0) & ((f < hi) | (f > hi * OUT_FACTOR * (1 - 2e-6))))
         for j in np.flatnonzero(at_bound | edge | at_edge):
             reasons[j] = "did not converge (pushed to a bound)"
         for j in self._unresolved(w, z, side, ev, reasons):
@@ -257,38 +258,41 @@ class AutoSelection:
     def _out_of_band(self, state, tried_side):
         """Poles just outside the band (the tails of modes there distort the in-band
         residual): one new pole per side and pass, passes repeated while a side keeps
-        significant poles (at most :data:`MAX_OUT` per side; a mode just outside one edge
-        dominates the residual, and poles fitted to it from the other side would pile up
-        at their far bound); a side is retried whenever the numbers of in-band poles or
-        of poles have changed since its last failed trial.  Returns the new state, or None when no
-        pole was added."""
+        significant poles.  At most :data:`MAX_OUT` are added per side over the whole
+        selection, so that poles a later fit pushes to a far bound (then removed) are not
+        tried again and again.  Alternating matters: a mode just outside one edge
+        dominates the residual, and poles fitted to it from the other side pile up at
+        their far bound.  A side is retried whenever the numbers of in-band poles or of
+        poles have changed since its last failed trial.  Returns the new state, or None
+        when no pole was added."""
         changed = None
         while True:
             added = False
             for sd in (-1, 1):
                 w, z, side = state[:3]
                 key = (int(np.count_nonzero(side == 0)), w.size)
-                if tried_side[sd] == key or np.count_nonzero(side == sd) >= MAX_OUT:
+                if tried_side[sd] == key or self.out_added[sd] >= MAX_OUT:
                     continue
                 new = self._try_side(state, sd)
                 if new is None:
                     tried_side[sd] = key
                     continue
                 state = changed = self.best = new
+                self.out_added[sd] += 1
                 added = True
             if not added:
                 return changed
 
     def _oob_start(self, state, sd):
         """Starting frequency (Hz) of a new pole on side ``sd``: the best of a geometric
-        grid between just outside the band edge and the far bound of the search (band
-        edge / 4 or x 4) by the cost of the fit with the trial pole added (the others
-        fixed); from the edge alone, a probe for modes well beyond it ends at the far
-        bound."""
+        grid between just outside the band edge and the far bound of the search (the
+        edge divided or multiplied by :data:`~sdctrl.identification._search.OUT_FACTOR`)
+        by the cost of the fit with the trial pole added (the others fixed); from the
+        edge alone, a probe for modes well beyond it ends at the far bound."""
         w, z, side = state[:3]
         edge = self.fband[0] if sd < 0 else self.fband[1]
-        grid = edge * (0.97 if sd < 0 else 1.03) * np.geomspace(1.0, 0.26 if sd < 0 else 3.8,
-                                                                OOB_GRID)
+        span = 0.95 * OUT_FACTOR if sd > 0 else 1 / (0.95 * OUT_FACTOR)
+        grid = edge * (0.97 if sd < 0 else 1.03) * np.geomspace(1.0, span, OOB_GRID)
         best, fbest = np.inf, grid[0]
         for f0 in grid:
             x = np.concatenate([np.log(np.append(w, 2 * np.pi * f0)),
