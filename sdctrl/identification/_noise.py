@@ -10,7 +10,12 @@ cost change exceeds what pure noise would give:
   leverage ``h`` of each line, ``|r|^2 / (1 - h)``, since a pole absorbs part of the noise
   of the lines it fits), as the larger of an additive level and a level proportional to
   a shape: the point variance ``|H|^2 (1 - coherence)`` (3.59) when ``frf.coherence`` is
-  given, else the fitted ``|H|^2`` (multiplicative noise);
+  given, else the fitted ``|H|^2`` (multiplicative noise); the same two levels are also
+  estimated from the second differences of the residual along the lines,
+  ``|r_(i-1) - 2 r_i + r_(i+1)|^2 / 6``, and the lower field is kept: for noise both agree,
+  while a residual smooth in frequency (model error, the tails of modes just outside the
+  band, a close mode not fitted yet) is no noise and would otherwise raise the threshold
+  that the very poles which remove it must pass;
 * it is weighted by the diagonal of the projector on the pole's columns (orthogonalised
   against the other poles): a pole on a peak meets the noise of the peak;
 * the cost change of a noise-fitting pole, ``sum_c s_c chi2(npp)`` over the data

@@ -6,14 +6,17 @@ add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification.
 drop poles that do not converge (pushed to a bound), fit noise (half-power bandwidth below
 a fraction of the line spacing and a damping the data do not determine, 3.56), are in-band
 fillers with very large damping or are not statistically significant
-(:mod:`~sdctrl.identification._noise`), and try out-of-band poles just below and above the
-band (held outside by bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2``
-cannot represent.  Both sides are tried before the first removal of insignificant poles:
-the significance test takes the residual for noise, and the tail of a mode just outside
-the band inflates it over the whole band (a lightly damped mode at the other end of the
+(:mod:`~sdctrl.identification._noise`), and add out-of-band poles below and above the
+band (held outside by bounds, within a factor 4 of its edges) that absorb modes the
+asymptotic terms ``E``, ``F/s^2`` cannot represent: one per side and pass while they are
+significant, so that the fit reaches the noise whatever lies outside the band (six
+suspension and plate modes below a band, modes just outside both edges).  Both sides
+are tried before the first removal of insignificant poles: the significance test takes
+the residual for noise, and the tail of a mode just outside the band inflates it over
+the whole band (a lightly damped mode at the other end of the
 testbed band looked 0.3-0.8 times the threshold, then 280 times once the mode above the
 band was fitted).  A side's trial is repeated whenever
-the in-band pole set has changed since its last trial: on a first fit that still misses
+the pole set has changed since its last failed trial: on a first fit that still misses
 in-band modes (common with single-reference data, whose indicator functions propose fewer
 candidates), their residual pulls the trial pole to a bound, and the out-of-band mode is
 only found once they are fitted.
