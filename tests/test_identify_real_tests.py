@@ -87,7 +87,8 @@ def test_hammer_survey_frf_error(survey):
                                                                                  axis=(1, 2))
     assert np.median(rel) < 0.02
     # the sign flips between hammer columns are carried by the residues
-    assert np.all(cm.singular_value_ratios()[:, 1] < 0.15)
+    assert np.all(cm.singular_value_ratios()[cm.in_band, 1] < 0.15)   # out-of-band poles
+    # may stand for several modes beyond the band (their residues are not dyadic)
     std = cm.residue_std(frf)
     assert std.shape == cm.residues.shape and np.all(std > 0)
     sys = cm.to_statespace()
