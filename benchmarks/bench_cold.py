@@ -20,6 +20,21 @@ inputs + the call (the user's cost); warm figures: the same call repeated in thi
 Runs alternate between the candidates (the machine's load drifts); medians are printed as a
 table of seconds and ratios sdctrl / reference.  sdypy-EMA (``pip install sdypy-ema``) is a
 benchmark-only dependency.
+
+Measured (issue 27, 2-core machine shared with five other sessions, load ~10, 3 runs):
+
+=====================  ======  ======  =====  =========================================
+ema case               fresh   warm    ratio  note
+=====================  ======  ======  =====  =========================================
+sdctrl, before         4.20 s  0.41 s  0.51   first call imported scipy.signal (3.4 s)
+EMA, same run          8.28 s  5.20 s
+sdctrl, after          2.80 s  0.63 s  0.24   numpy peak finders, scipy.special chdtri
+EMA, same run          11.64 s 5.66 s
+=====================  ======  ======  =====  =========================================
+
+fe case (N = 100,224, 20 modes, 2 runs, load ~9-11): ``FEModel(M, K).modes(20)`` fresh 153 s,
+warm 144 s; plain ``eigsh`` fresh 271 s, warm 180 s: ratios 0.57 (fresh) and 0.80 (warm),
+construction and its positive-definiteness check of M included (<= 1.5 asked).
 """
 
 from __future__ import annotations
