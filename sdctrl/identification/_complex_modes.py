@@ -162,10 +162,14 @@ class ComplexModeModel:
         return pole_std(self.statistics, self.poles)[1]
 
     def replace(self, **changes) -> ComplexModeModel:
-        """Copy with some fields changed (validated again)."""
+        """Copy with some fields changed (validated again; ``statistics`` dropped with new
+        poles or channels)."""
         kw = {k: getattr(self, k) for k in ("poles", "residues", "E", "F", "in_band", "cost",
                                             "sensors", "actuators", "collocated", "band",
                                             "info", "statistics")}
+        if "poles" in changes or np.shape(changes.get("residues", self.residues)) != \
+                self.residues.shape:
+            kw["statistics"] = None                # they described other poles or channels
         kw.update(changes)
         return ComplexModeModel(**kw)
 
