@@ -7,7 +7,7 @@ modes above the band, ``F/s^2`` the residual mass of modes below it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -185,11 +185,12 @@ class ComplexModeModel(FrozenState):
         return pole_std(self.statistics, self.poles)[1]
 
     def replace(self, **changes) -> ComplexModeModel:
-        """Copy with some fields changed (validated again)."""
-        kw = {k: getattr(self, k) for k in ("poles", "residues", "E", "F", "in_band", "cost",
-                                            "sensors", "actuators", "collocated", "band",
-                                            "info", "stabilisation", "warnings", "search",
-                                            "exponential_tau", "statistics")}
+        """Copy with some fields changed (validated again; ``statistics`` dropped with new
+        poles or channels)."""
+        kw = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        if "poles" in changes or np.shape(changes.get("residues", self.residues)) != \
+                self.residues.shape:
+            kw["statistics"] = None                # they described other poles or channels
         kw.update(changes)
         return ComplexModeModel(**kw)
 
