@@ -92,13 +92,21 @@ def test_update_recovers_the_chain_parameters(nominal, measured):
         assert res.values[name] == pytest.approx(value, abs=1e-8)
     rng = np.random.default_rng(1)
     e = rng.standard_normal((2,) + measured.H.shape) / np.sqrt(2)
-    noisy = sd.FRF(measured.freq, measured.H * (1 + 0.01 * (e[0] + 1j * e[1])),
-                   sensors=DOFS, actuators=DOFS[-1:])
+    H = measured.H * (1 + 0.01 * (e[0] + 1j * e[1]))
+    noisy = sd.FRF(measured.freq, H, sensors=DOFS, actuators=DOFS[-1:], collocated=())
     undamped = sd.FEModel(nominal.M, nominal.K, dofs=DOFS)
     res = sd.update(undamped, noisy, _params(), progress=False)
     assert res.test_modes == "identified complex modes"
     for name, value in TRUTH.items():
         assert res.values[name] == pytest.approx(value, abs=2e-3)
+    # the last DOF is both a sensor and the actuator: collocated by label (issue 26) unless
+    # told otherwise, and the damping then comes from the identified normal modes of this one
+    # driving point -- less accurate here (3% on one parameter, measured 0.2911 for 0.3)
+    labelled = sd.FRF(measured.freq, H, sensors=DOFS, actuators=DOFS[-1:])
+    res = sd.update(undamped, labelled, _params(), progress=False)
+    assert res.test_modes == "identified normal modes"
+    for name, value in TRUTH.items():
+        assert res.values[name] == pytest.approx(value, abs=0.012)
 
 
 def test_update_result_and_identifiability_survive_save_and_load(nominal, measured, tmp_path):

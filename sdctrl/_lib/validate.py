@@ -90,9 +90,11 @@ def as_array(x, name: str, *, ndim: int | tuple[int, ...] | None = None, dtype=f
     if finite and arr.size and not np.all(np.isfinite(arr)):
         bad = ~np.isfinite(arr)
         first = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = "" if arr.ndim == 0 else (
+            f" at index {first if arr.ndim > 1 else first[0]}")
         raise ValueError(f"{name} must contain only finite values (no NaN or inf): "
                          f"{int(bad.sum())} non-finite entr{'y' if bad.sum() == 1 else 'ies'}, "
-                         f"the first {arr[first]} at index {first if arr.ndim > 1 else first[0]}")
+                         f"the first {arr[first]}{where}")
     if not arr.flags.writeable:                     # e.g. a broadcast view: hand out a copy
         arr = arr.copy()
     return arr

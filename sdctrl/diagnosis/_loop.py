@@ -81,10 +81,13 @@ def _on_fe(model, fe):
     from sdctrl.identification import ComplexModeModel, normal_modes
     from sdctrl.modal._normal_model import NormalModeModel
 
+    from sdctrl.fe import FEModel
+
     delayed = isinstance(model, DelayedModel)
     inner = model.model if delayed else model
-    if fe is None or fe.nodes is None or getattr(inner, "shapes", None) is not None:
-        return model, None
+    if (not isinstance(fe, FEModel) or fe.nodes is None
+            or getattr(inner, "shapes", None) is not None):
+        return model, None                        # (a wrong fe is refused by _check)
     dofs = set(fe.dofs)
     if not (set(inner.sensors) <= dofs and set(inner.actuators) <= dofs):
         return model, None

@@ -42,7 +42,7 @@ __all__ = ["TestStructure", "family", "structure"]
 class TestStructure:
     """One member of the family of test structures.
 
-    Attributes
+    Parameters
     ----------
     name : str
         Its name in :func:`family`.
@@ -57,6 +57,10 @@ class TestStructure:
         Keyword arguments of the builder that make the deliberately wrong FE model.
     truth : dict
         Parameter name -> the value ``p`` (4.15) that corrects the wrong model exactly.
+    builder : callable
+        ``builder(**factors) -> FEModel`` (factors 1: the true structure).
+    parameter_maker : callable
+        ``parameter_maker(fe) -> list of Parameter`` in the order of :attr:`truth`.
     """
 
     __test__ = False                    # not a pytest test class despite its name
