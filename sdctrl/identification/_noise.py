@@ -10,12 +10,7 @@ cost change exceeds what pure noise would give:
   leverage ``h`` of each line, ``|r|^2 / (1 - h)``, since a pole absorbs part of the noise
   of the lines it fits), as the larger of an additive level and a level proportional to
   a shape: the point variance ``|H|^2 (1 - coherence)`` (3.59) when ``frf.coherence`` is
-  given, else the fitted ``|H|^2`` (multiplicative noise); the same two levels are also
-  estimated from the second differences of the residual along the lines,
-  ``|r_(i-1) - 2 r_i + r_(i+1)|^2 / 6``, and the lower field is kept: for noise both agree,
-  while a residual smooth in frequency (model error, the tails of modes just outside the
-  band, a close mode not fitted yet) is no noise and would otherwise raise the threshold
-  that the very poles which remove it must pass;
+  given, else the fitted ``|H|^2`` (multiplicative noise);
 * it is weighted by the diagonal of the projector on the pole's columns (orthogonalised
   against the other poles): a pole on a peak meets the noise of the peak;
 * the cost change of a noise-fitting pole, ``sum_c s_c chi2(npp)`` over the data
@@ -119,31 +114,9 @@ def noise_field(r, Yfit, Q, shape, win: int) -> np.ndarray:
     e = (r[:nf] ** 2 + r[nf:] ** 2) / np.maximum(1.0 - lev, 0.05)[:, None]
     shape = shape if shape is not None else Yfit[:nf] ** 2 + Yfit[nf:] ** 2
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
-    field = _level(e, shape, tiny, win)
-    if nf >= 8:
-        # the same from second differences of the residual along the lines: equal for
-        # noise, far below for a residual smooth in frequency (model error, the tails
-        # of modes outside the band), which is no noise
-        d = _second_difference(r[:nf], r[nf:], lev)
-        field = np.minimum(field, _level(d, shape, tiny, win))
-    return field
-
-
-def _level(e, shape, tiny, win):
-    """Larger of the additive and the multiplicative running-median levels of ``e``."""
     add = running_median(e, win)
     mult = running_median(e / (shape + tiny), win) * shape
     return np.maximum(add, mult) / np.log(2.0)
-
-
-def _second_difference(re, im, lev):
-    """``|r_(i-1) - 2 r_i + r_(i+1)|^2 / 6`` per line (edges repeated), standardised by the
-    leverage like the residual: for independent noise of a smooth variance its mean is
-    the variance of one line."""
-    d = (re[:-2] - 2 * re[1:-1] + re[2:]) ** 2 + (im[:-2] - 2 * im[1:-1] + im[2:]) ** 2
-    h = np.maximum(1.0 - (lev[:-2] + 4 * lev[1:-1] + lev[2:]) / 6, 0.05)
-    d = d / (6 * h[:, None])
-    return np.concatenate([d[:1], d, d[-1:]])
 
 
 def projector_diagonal(G):
@@ -188,7 +161,7 @@ class NoiseTest:
         self.signif = significance
         self.shape = shape                      # noise shape (nf, k) from the coherence
         self.win = max(41, self.nf // 20)       # running-median window of the noise
-        self.floor = 1e-13 * prob.normY2        # below: numerically zero cost change
+        self.floor = 1e-11 * prob.normY2        # below: numerically zero cost change
 
     def field(self, ev) -> np.ndarray:
         """:func:`noise_field` of the fit ``ev``, computed once per fit (the pruning test,
