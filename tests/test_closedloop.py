@@ -306,3 +306,20 @@ def test_modal_damping_in_band():
     assert np.allclose(z, zr, rtol=1e-6)
     f2, z2 = modal_damping(nm.to_statespace(), (f[2] * 0.99, f[4] * 1.01))
     assert np.allclose(f2, f[2:5]) and np.allclose(z2, z[2:5])
+
+
+def test_rms_lightly_damped_mode_beside_a_stiff_overdamped_pole():
+    """A strut's dashpot gives a pole at -2e6 rad/s: a 10 Hz mode with 0.1% damping beside it
+    (|Re p| = 0.063 rad/s, 3e-8 of the largest |p|) is damped, not 'undamped': the band RMS
+    is that of the mode alone plus the fast pole's, against quadrature."""
+    w0, z0 = 2 * np.pi * 10.0, 0.001
+    mode = control.ss(control.tf([w0 ** 2], [1.0, 2 * z0 * w0, w0 ** 2]))
+    fast = control.ss(control.tf([2e6], [1.0, 2e6]))                  # ~1 over the band
+    G = control.parallel(mode, fast)
+    band = (5.0, 20.0)
+    got = rms(G, band)[0]
+    assert got == pytest.approx(_quad_rms(G, band, np.ones(1), points=(10.0,))[0], rel=1e-5)
+    # an undamped mode in the same system is still refused
+    undamped = control.ss(control.tf([1.0], [1.0, 0.0, w0 ** 2]))
+    with pytest.raises(ValueError, match=r"undamped poles .*\[10.\] Hz"):
+        rms(control.parallel(undamped, fast), band)

@@ -43,9 +43,18 @@ def _mats(G):
     return A, B, C, D
 
 
-#: undamped poles: |Re p| below this fraction of the largest |p| (a defective double pole at 0,
-#: a rigid-body mode, splits by about sqrt(machine epsilon) in floating point)
+#: undamped poles: |Re p| below this fraction of |p| (a defective double pole at 0, a
+#: rigid-body mode, splits by about sqrt(machine epsilon) in floating point: poles near 0
+#: are judged against sqrt(max |p|) instead).  Relative to each pole, not to the largest
+#: one: a stiff, overdamped pole (a strut's dashpot, a correction mode) must not make a
+#: lightly damped mode look undamped.
 AXIS_RTOL = 1e-7
+
+
+def _on_axis(lam: np.ndarray, big: float):
+    """Predicate ``(re, im) -> bool``: the poles on the imaginary axis (see AXIS_RTOL)."""
+    floor = np.sqrt(max(big, 1.0))
+    return lambda re, im: np.abs(re) <= AXIS_RTOL * np.maximum(np.hypot(re, im), floor)
 
 
 def _check_poles(A: np.ndarray, w1: float, w2: float, what: str = "sys"):
@@ -54,8 +63,9 @@ def _check_poles(A: np.ndarray, w1: float, w2: float, what: str = "sys"):
     if A.shape[0] == 0:
         return None
     lam = np.linalg.eigvals(A)
-    tol = AXIS_RTOL * max(np.abs(lam).max(), 1.0)
-    axis = np.abs(lam.real) <= tol
+    on_axis = _on_axis(lam, float(np.abs(lam).max()))
+    axis = on_axis(lam.real, lam.imag)
+    tol = AXIS_RTOL * max(float(np.abs(lam).max()), 1.0)
     unstable = (lam.real > 0) & ~axis
     if np.any(unstable):
         worst = lam[np.argmax(np.where(unstable, lam.real, -np.inf))]
@@ -71,7 +81,7 @@ def _check_poles(A: np.ndarray, w1: float, w2: float, what: str = "sys"):
                          f"{np.unique((f / (2 * np.pi)).round(6))[:5]} Hz: their band RMS is "
                          f"infinite over ({w1 / (2 * np.pi):g}, {w2 / (2 * np.pi):g}) Hz; give "
                          "a finite band that excludes them, or damp them (close the loop) first")
-    return lambda re, im: np.abs(re) <= tol
+    return on_axis
 
 
 # ----------------------------------------------------------------------------------------
