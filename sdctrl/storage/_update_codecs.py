@@ -143,10 +143,11 @@ def _build_cost_problem(rm, omega, logH, parameters):
 
 
 def _build_update(values, fe, cost_before, cost_after, parameters, pairing, stages, model,
-                  info=None, damping=None, test_modes=None, std=None):
+                  info=None, damping=None, test_modes=None, std=None, fit=None):
     """:class:`~sdctrl.updating._update_fit.UpdateResult` checked field by field."""
     from sdctrl.fe import FEModel
     from sdctrl.modal._normal_model import NormalModeModel
+    from sdctrl.updating._fit_floor import FitFloor
     from sdctrl.updating._update_fit import UpdateResult
 
     pars = _parameters(parameters, "update parameters")
@@ -173,9 +174,12 @@ def _build_update(values, fe, cost_before, cost_after, parameters, pairing, stag
         if text is not None and not isinstance(text, str):
             raise _fail(f"update {name}", text)
     std = {} if std is None else _float_dict(std, [p.name for p in pars], "update std", False)
+    if fit is not None and not isinstance(fit, FitFloor):
+        raise _fail("update fit", fit)
     return UpdateResult(values, fe, _number(cost_before, "update cost_before", False),
                         _number(cost_after, "update cost_after", False), pars, pairing,
-                        stages, model, info, damping=damping, test_modes=test_modes, std=std)
+                        stages, model, info, damping=damping, test_modes=test_modes, std=std,
+                        fit=fit)
 
 
 def _build_identifiability(names, sensitivity, correlation, confounded, weak, error_level,
@@ -215,6 +219,7 @@ register_attrs("ReducedModel", "sdctrl.updating._parametric:ReducedModel",
                build=_build_reduced, lenient=())
 register_attrs("CostProblem", "sdctrl.updating._identifiability:CostProblem",
                kinds={"omega": "f", "logH": "f"}, build=_build_cost_problem, lenient=())
+register_attrs("FitFloor", "sdctrl.updating._fit_floor:FitFloor")
 register_attrs("UpdateResult", "sdctrl.updating._update_fit:UpdateResult", build=_build_update)
 register_attrs("Identifiability", "sdctrl.updating._identifiability:Identifiability",
                kinds={"correlation": "f", "separation": "f", "estimate_correlation": "f"},

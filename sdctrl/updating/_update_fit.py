@@ -35,6 +35,7 @@ from sdctrl._lib.display import markdown_table
 from sdctrl._lib.validate import check_int, check_scalar
 from sdctrl.fe._parameters import Parameter
 from sdctrl.fe._fe_model import check_fe_model
+from sdctrl.updating._fit_floor import FitFloor, fit_floor
 from sdctrl.updating._placed_test import measured_modes, place_test
 from sdctrl.updating._problem import apply_parameters, build_problem
 from sdctrl.updating._update_statistics import fitted_std
@@ -85,6 +86,11 @@ class UpdateResult:
         Parameter name -> one standard deviation of the fitted ``p`` under the test's noise
         (Cramer-Rao bound of the logLS fit at the optimum,
         :mod:`~sdctrl.updating._update_statistics`).
+    fit : FitFloor or None
+        The final cost against the noise floor estimated from the data
+        (:mod:`~sdctrl.updating._fit_floor`): ``fit.noise_floor``, ``fit.ratio``,
+        ``fit.above`` (more than ten times the floor: warned), ``fit.at_peaks`` (the share
+        of the excess at the resonances) and ``fit.text`` (the verdict, with what to try).
     """
 
     values: dict
@@ -99,6 +105,7 @@ class UpdateResult:
     damping: str | None = None
     test_modes: str | None = None
     std: dict = field(default_factory=dict)
+    fit: FitFloor | None = None
 
     def __repr__(self) -> str:
         vals = ", ".join(f"{k}={v:.4g}" for k, v in self.values.items())
@@ -121,6 +128,8 @@ class UpdateResult:
                               rows),
                "", (f"logLS cost (3.12): before **{self.cost_before:.4g}**, after "
                f"**{self.cost_after:.4g}** (damping: {self.damping or '?'})."), ""]
+        if self.fit is not None:
+            out += [f"Final cost against the noise floor: {self.fit.text}.", ""]
         st = [(s["stage"], ", ".join(f"{v:.4g}" for v in s["values"]), f"{s['cost']:.4g}",
                s["nfev"]) for s in self.stages]
         out += [markdown_table(["stage", "values", "cost", "evaluations"], st), ""]
@@ -344,17 +353,29 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             std = fitted_std(prob1, measured, [par.name for par in pars], scale)
     finally:
         bar.close()
-    if cost_after > cost_before:
-        warnings.warn(f"update: the updated model fits the data worse than the nominal one "
-                      f"(logLS {cost_before:.3g} -> {cost_after:.3g}); check the parameters, "
-                      "the band and the damping", RuntimeWarning, stacklevel=2)
     return UpdateResult(
         values={par.name: float(v) for par, v in zip(pars, p)}, fe=fe1,
         cost_before=float(cost_before), cost_after=float(cost_after), parameters=pars,
         pairing=_pairing_table(modes, before, after), stages=tuple(stages), model=model,
         info={"basis": {"modes": prob1.basis.n_modes, "static": prob1.basis.n_static},
               "strategy": strategy, "time": time.perf_counter() - t0},
-        damping=_damping_text(choice, modes), test_modes=modes.source, std=std)
+        damping=_damping_text(choice, modes), test_modes=modes.source, std=std,
+        fit=_floor(model, measured, modes, cost_before, cost_after))
+
+
+def _floor(model, measured, modes, cost_before, cost) -> FitFloor:
+    """The final cost against the nominal one and the data's noise floor
+    (:mod:`~sdctrl.updating._fit_floor`), with a warning when it is worse or above it."""
+    if cost > cost_before:
+        warnings.warn(f"update: the updated model fits the data worse than the nominal one "
+                      f"(logLS {cost_before:.3g} -> {cost:.3g}); check the parameters, "
+                      "the band and the damping", RuntimeWarning, stacklevel=3)
+    frf = measured.frf
+    H = model.frf(frf.freq, quantity=frf.quantity).H
+    fit = fit_floor(cost, frf.freq, H, frf.H, modes.frequency, modes.damping)
+    if fit.above:
+        warnings.warn(f"update: the final cost is {fit.text}", RuntimeWarning, stacklevel=3)
+    return fit
 
 
 def _frequency_stage(prob, p, lo, hi, scale, nfev_max):
