@@ -406,3 +406,46 @@ def test_certified_controller_stabilises_the_true_structure():
             assert r.stable and true_abscissa(gain) < 0
     # the margin is finite (the uncertainty matters) and certifies most draws
     assert np.all(np.isfinite(margins)) and np.mean(np.array(margins) >= 1) >= 0.5, margins
+
+
+def test_confounded_verdict_agrees_with_the_scatter_of_updates():
+    """Two mass parameters of a 5-DOF chain with almost the same effect (their estimates
+    correlated -0.99): at 2% noise each is determined to 0.2% of its standard change, and 20
+    updates agree -- not confounded (a correlation rule alone would say they are).  Raising
+    the noise until the pair's 95% joint region spans the standard changes makes them
+    confounded, each still below its standard change (not weak)."""
+    noise = 0.02
+    M, K, C = chain_matrices(5)
+    dofs = [f"N{i + 1}.x" for i in range(5)]
+    pars = [sd.Parameter("a", dM=np.diag([0, 0, 0, 0.3, 1.0]), bounds=(-0.5, 2.0)),
+            sd.Parameter("b", dM=np.diag([0, 0, 0, 0.5, 1.0]), bounds=(-0.5, 2.0))]
+    fe = sd.FEModel(M, K, C=C, dofs=dofs)
+    freq = np.linspace(2.0, 40.0, 200)
+    H0 = chain_frf(M, K, C, freq)
+    rng = np.random.default_rng(3)
+    ident = sd.identifiability(fe, noisy(freq, H0, noise, rng, sensors=dofs,
+                                         actuators=dofs[:1]), pars, damping="fe",
+                               noise=noise**2 / 2)
+    assert ident.estimate_correlation[0, 1] < -0.95
+    assert ident.confounded == [] and ident.weak == []
+    vals, stds = [], []
+    for _ in range(20):
+        res = sd.update(fe, noisy(freq, H0, noise, rng, sensors=dofs, actuators=dofs[:1]),
+                        pars, damping="fe", progress=False)
+        vals.append([res.values["a"], res.values["b"]])
+        stds.append([res.std["a"], res.std["b"]])
+    vals = np.array(vals)
+    scatter = np.std(vals, axis=0, ddof=1)
+    pred = np.array([ident.std["a"], ident.std["b"]])
+    for s in (pred, np.median(stds, axis=0)):
+        assert np.all((scatter / s > 0.5) & (scatter / s < 2.0)), scatter / s
+    # the updates tell them apart: their spread along the worst combination is far below
+    # the standard changes (1), though the two estimates move together
+    major = np.sqrt(np.linalg.eigvalsh(np.cov(vals.T)).max())
+    assert major < 0.05 and np.corrcoef(vals.T)[0, 1] < -0.9
+    # a noise level giving each estimate half its standard change: confounded, not weak
+    level = noise**2 / 2 * (0.5 / ident.std["a"]) ** 2
+    loud = sd.identifiability(fe, noisy(freq, H0, noise, rng, sensors=dofs,
+                                        actuators=dofs[:1]), pars, damping="fe", noise=level)
+    assert loud.std["a"] == pytest.approx(0.5, rel=1e-6) and loud.weak == []
+    assert loud.confounded == [("a", "b")]
