@@ -196,9 +196,14 @@ def test_identify_own_data(tmp_path):
     proc = _sdctrl("identify", str(tmp_path / "lab.uff"), "--band", "8", "20", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     rows = [x.split() for x in proc.stdout.splitlines() if re.match(r"\s+\d+\s+\d+\.\d{4}\s", x)]
-    f = np.array([float(r[1]) for r in rows if r[3] == "yes"])
+    f = np.array([float(r[1]) for r in rows if r[5] == "yes"])
     f_true = np.array([9.518, 12.660, 15.786, 15.873, 18.135, 18.630])   # damped, Hz
     assert f.size == 6 and np.abs(f / f_true - 1).max() < 1e-3
+    # each frequency and damping with its standard deviation (1% noise: small, positive)
+    fs = np.array([float(r[2]) for r in rows if r[5] == "yes"])
+    zs = np.array([float(r[4]) for r in rows if r[5] == "yes"])
+    assert np.all((fs > 0) & (fs < 1e-3 * f)) and np.all((zs > 0) & (zs < 0.1))
+    assert "+- std" in proc.stdout
     out = tmp_path / "lab-sdctrl"
     html = (out / "report.html").read_text()
     for key in ("data", "identification", "normal_modes"):

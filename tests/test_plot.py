@@ -476,3 +476,85 @@ def test_figures_do_not_warn(testbed_frf):
         warnings.simplefilter("error")
         sd.plot.bode(testbed_frf, channels=[(0, 0), (1, 1)])
         sd.plot.cmif(testbed_frf)
+
+
+# ------------------------------------------------------------------- statistics (issue 24)
+def _chain(n=3):
+    M = np.diag(np.linspace(1.0, 1.4, n))
+    k = 1e4 * np.linspace(1.0, 1.5, n)
+    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    return M, K, 2e-4 * K + 0.3 * M
+
+
+@pytest.fixture(scope="module")
+def chain_identified():
+    """A 3-DOF chain tested with 2% noise on every mass from mass 1, identified."""
+    M, K, C = _chain()
+    f = np.linspace(2.0, 40.0, 240)
+    s = 2j * np.pi * f
+    H0 = np.linalg.inv(M * (s**2)[:, None, None] + C * s[:, None, None] + K)[:, :, :1]
+    rng = np.random.default_rng(0)
+    e = (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2)
+    labels = ("N1.x", "N2.x", "N3.x")
+    frf = sd.FRF(f, H0 * (1 + 0.02 * e), sensors=labels, actuators=labels[:1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return frf, sd.identify(frf, progress=False), (M, K, C, labels)
+
+
+def test_mode_table_intervals_are_the_statistics(chain_identified):
+    frf, cm, _ = chain_identified
+    assert np.all(np.isfinite(cm.frequency_std))
+    fig = sd.plot.mode_table(cm, frf, level=0.95)
+    bars = fig.axes[1].containers[0]
+    np.testing.assert_allclose(bars.lines[0].get_xdata(), cm.frequency)
+    np.testing.assert_allclose(bars.lines[0].get_ydata(), 100 * cm.damping)
+    # horizontal bar segments span f +- 1.96 std
+    seg = bars.lines[2][0].get_segments()
+    half = np.array([abs(s[1][0] - s[0][0]) / 2 for s in seg])
+    np.testing.assert_allclose(half, 1.959964 * cm.frequency_std, rtol=1e-5)
+    cells = fig.axes[2].tables[0].get_celld()
+    text = cells[(1, 1)].get_text().get_text()
+    assert text.startswith(f"{cm.frequency[0]:.6g} +- ") and "95%" in cells[(0, 1)].get_text().get_text()
+    # the CMIF is the data's singular values
+    np.testing.assert_allclose(fig.axes[0].get_lines()[0].get_ydata(),
+                               np.linalg.svd(frf.H, compute_uv=False)[:, 0])
+    # half the level, narrower bars; a model without statistics shows n/a
+    seg50 = sd.plot.mode_table(cm, level=0.5).axes[1].containers[0].lines[2][0].get_segments()
+    assert abs(seg50[0][1][0] - seg50[0][0][0]) < 0.5 * abs(seg[0][1][0] - seg[0][0][0])
+    bare = sd.plot.mode_table(sd.ComplexModeModel(cm.poles, cm.residues))
+    assert "n/a" in bare.axes[2].tables[0].get_celld()[(1, 1)].get_text().get_text()
+    with pytest.raises(ValueError, match="level"):
+        sd.plot.mode_table(cm, level=95)
+    with pytest.raises(TypeError, match="ComplexModeModel"):
+        sd.plot.mode_table(frf)
+
+
+def test_envelope_of_the_uncertain_model_from_the_data(chain_identified):
+    frf, cm, _ = chain_identified
+    nm = sd.normal_modes(cm)
+    wide, narrow = sd.uncertain_from_data(nm, 0.95), sd.uncertain_from_data(nm, 0.5)
+    spans = []
+    for um in (wide, narrow):
+        fig = sd.plot.envelope(um, frf.freq, channels=[("N1.x", "N1.x")], n_samples=10, seed=0)
+        env = um.frf_envelope(frf.freq, n_samples=10, seed=0)
+        v = fig.axes[0].collections[0].get_paths()[0].vertices
+        assert np.isclose(v[:, 1].max(), _db(env["mag_max"][:, 0, 0]).max())
+        spans.append(np.median(env["mag_max"][:, 0, 0] / env["mag_min"][:, 0, 0]))
+    assert spans[0] > spans[1] > 1
+
+
+def test_correlation_matrix_of_the_estimates(chain_identified):
+    frf, _, (M, K, C, labels) = chain_identified
+    fe = sd.FEModel(M, K, C=C, dofs=list(labels))
+    dK = np.zeros((3, 3))
+    dK[0, 0] = 1e4
+    dM1, dM2 = np.diag([0.0, 1.0, 0.0]), np.diag([0.0, 0.0, 1.0])
+    pars = [sd.Parameter("k1", dK=dK), sd.Parameter("m2", dM=dM1), sd.Parameter("m3", dM=dM2)]
+    ident = sd.identifiability(fe, frf, pars, damping="fe", noise=0.02**2 / 2)
+    fig = sd.plot.correlation(ident)
+    np.testing.assert_allclose(fig.axes[0].images[0].get_array(), ident.estimate_correlation)
+    assert [t.get_text() for t in fig.axes[0].get_xticklabels()] == ["k1", "m2", "m3"]
+    assert len(fig.axes[0].patches) == 2 * len(ident.confounded)
+    with pytest.raises(TypeError, match="Identifiability"):
+        sd.plot.correlation(frf)

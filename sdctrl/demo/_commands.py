@@ -6,6 +6,8 @@ import os
 import platform
 import time
 
+import numpy as np
+
 from sdctrl.report import Document
 from sdctrl.demo._diagnosing import diagnose_retest
 from sdctrl.demo._test_side import identify_test, normal_modes_of
@@ -165,7 +167,9 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
 
 
 def mode_lines(ident) -> list[str]:
-    """Terminal table of identified modes (frequency, damping, in band).
+    """Terminal table of identified modes: frequency and damping with one standard deviation
+    (``frequency_std``, ``damping_std``, thesis 3.4; "n/a" where the data do not determine
+    them), in band.
 
     Parameters
     ----------
@@ -178,9 +182,13 @@ def mode_lines(ident) -> list[str]:
         One line per mode, after a header line.
     """
     cm = ident.cm
-    lines = [f"{'mode':>4} {'freq (Hz)':>10} {'damping (%)':>11}  in band"]
-    for j, (f, z, ib) in enumerate(zip(cm.frequency, cm.damping, cm.in_band)):
-        lines.append(f"{j + 1:>4} {f:>10.4f} {100 * z:>11.3f}  {'yes' if ib else 'no'}")
+    lines = [f"{'mode':>4} {'freq (Hz)':>10} {'+- std':>8} {'damping (%)':>11} {'+- std':>7}"
+             "  in band"]
+    rows = zip(cm.frequency, cm.frequency_std, cm.damping, cm.damping_std, cm.in_band)
+    for j, (f, fs, z, zs, ib) in enumerate(rows):
+        fs = f"{fs:>8.2g}" if np.isfinite(fs) else f"{'n/a':>8}"
+        zs = f"{100 * zs:>7.2g}" if np.isfinite(zs) else f"{'n/a':>7}"
+        lines.append(f"{j + 1:>4} {f:>10.4f} {fs} {100 * z:>11.3f} {zs}  {'yes' if ib else 'no'}")
     return lines
 
 

@@ -17,7 +17,11 @@ For each parameter and its standard change ``delta`` (:attr:`Parameter.standard_
   residual error");
 - **confounded** -- pairs of parameters (neither weak) whose estimates the test cannot tell
   apart: the predicted correlation of the two estimates beyond ``0.95`` (a long, thin
-  joint confidence region);
+  joint confidence region) *and* that region spanning the bounds -- its 95% semi-major
+  axis, in units of the standard changes, beyond one.  A correlation near one alone does
+  not confound: two estimates each determined to 1e-5 of their standard change are told
+  apart by the update whatever their correlation (the plate masses of
+  ``examples/update_fe.py``, correlated 0.99, fitted to 1e-5 in every noise draw);
 - **separation** -- for information, the mean squared effect of the least-distinguishable
   unit combination of standard changes of each pair (the smallest singular value of
   ``[J_i, J_j]``, squared and averaged like the cost);
@@ -105,8 +109,9 @@ class Identifiability:
     correlation : ndarray, shape (n, n)
         Correlation of the parameters' effects on the measured responses.
     confounded : list of (str, str)
-        Pairs the test cannot tell apart (predicted correlation of their estimates beyond
-        ``corr_max``).
+        Pairs the test cannot tell apart: predicted correlation of their estimates beyond
+        ``corr_max`` and their 95% joint confidence region longer than their standard
+        changes (module notes).
     weak : list of str
         Parameters whose predicted standard deviation exceeds their standard change.
     error_level : float
@@ -240,7 +245,19 @@ def _effects(prob, deltas, h: float = 1e-3):
     return np.array(sens), np.array(cols).T
 
 
-def _pairs(names, est_corr, J, weak, corr_max):
+#: chi-square quantile (2 degrees of freedom) of a 95% joint confidence region
+CHI2_95_2DOF = 5.991464547107979
+
+
+def _region_axis(est_corr, scaled_std, i, j) -> float:
+    """Semi-major axis of the 95% joint confidence region of estimates ``i``, ``j`` in
+    units of their standard changes (``scaled_std`` = std / standard change)."""
+    s = scaled_std[[i, j]]
+    cov = np.outer(s, s) * np.array([[1.0, est_corr[i, j]], [est_corr[i, j], 1.0]])
+    return float(np.sqrt(CHI2_95_2DOF * np.max(np.linalg.eigvalsh(cov))))
+
+
+def _pairs(names, est_corr, J, weak, corr_max, scaled_std):
     n_el = J.shape[0]
     sep = np.full((len(names),) * 2, np.inf)
     confounded = []
@@ -249,7 +266,9 @@ def _pairs(names, est_corr, J, weak, corr_max):
         sep[i, j] = sep[j, i] = float(s[-1] ** 2 / n_el)
         if names[i] in weak or names[j] in weak:
             continue
-        if not abs(est_corr[i, j]) <= corr_max:            # NaN: not determined apart
+        if not np.isfinite(est_corr[i, j]):                 # NaN: not determined apart
+            confounded.append((names[i], names[j]))
+        elif abs(est_corr[i, j]) > corr_max and _region_axis(est_corr, scaled_std, i, j) > 1:
             confounded.append((names[i], names[j]))
     return confounded, sep
 
@@ -279,7 +298,8 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     n_averages : int
         Averages behind the coherence (the error level divides by it).
     corr_max : float
-        Predicted correlation of two estimates above which the parameters are confounded.
+        Predicted correlation of two estimates above which the parameters are confounded
+        (when their joint 95% confidence region also spans their standard changes).
     fmax : float, optional
         Highest normal-mode frequency (Hz) of the reduced basis (default 2.5 x band top).
 
@@ -332,7 +352,8 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
                              measured.logH.shape, n_averages, level=level).ravel()
     std, est_corr = std_and_correlation(names, parameter_covariance(J / deltas, var))
     weak = [nm for nm, d in zip(names, deltas) if not std[nm] <= abs(d)]   # NaN: weak
-    confounded, sep = _pairs(names, est_corr, J, weak, corr_max)
+    scaled = np.array([std[nm] for nm in names]) / np.abs(deltas)
+    confounded, sep = _pairs(names, est_corr, J, weak, corr_max, scaled)
     return Identifiability(names, dict(zip(names, sens.tolist())), corr, confounded, weak,
                            level, source, dict(zip(names, deltas.tolist())), sep,
                            CostProblem(prob.rm, measured.omega, measured.logH, pars), std,
