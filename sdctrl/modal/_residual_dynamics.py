@@ -89,6 +89,18 @@ class ResidualDynamics(FrozenState):
         """Undamped natural frequencies ``|lambda| / 2 pi`` (Hz)."""
         return np.abs(self.poles) / (2 * np.pi)
 
+    def transposed(self) -> ResidualDynamics:
+        """The block of the transposed test (reciprocity): residues ``R_j^T``, labels swapped.
+
+        Returns
+        -------
+        ResidualDynamics
+        """
+        return ResidualDynamics(self.poles.copy(), np.swapaxes(self.residues, 1, 2).copy(),
+                                sensors=self.actuators, actuators=self.sensors,
+                                reasons=self.reasons,
+                                source=None if self.source is None else self.source.copy())
+
     def placed(self, sensors, actuators) -> np.ndarray:
         """Residues placed on a model's I/O by label, shape (m, len(sensors), len(actuators)).
 
