@@ -106,7 +106,7 @@ class NormalModeModel(FrozenState):
         it is.  None for models without.
     omega_f : float, optional
         Corner (rad/s) of the critically damped low-frequency correction modes realising
-        ``F``; default a tenth of the lower band edge (``properness.band``), else of the
+        ``F`` (``F (s + 3 w_f) / (s + w_f)^3``); default a tenth of the lower band edge (``properness.band``), else of the
         lowest natural frequency.
     """
 
@@ -363,7 +363,7 @@ class NormalModeModel(FrozenState):
         control.StateSpace
             Outputs named after the sensors, inputs after the actuators followed by ``_u``:
             ``2 n`` modal states, plus those of :attr:`residual`, of the ``E`` correction
-            (velocity/acceleration) and of ``F`` (``2 na`` each).
+            (velocity/acceleration, ``2 na``) and of ``F`` (``3 na``, ``2 na`` rigid).
 
         Notes
         -----

@@ -82,9 +82,10 @@ def to_statespace(model, quantity: str = "displacement", omega_c: float | None =
     rigid_body : bool
         Realise the residual mass ``F`` exactly by rigid-body correction modes (2.24),
         double integrators with poles at 0.  Default False: stable critically damped
-        correction modes ``F / (s + w_f)^2`` with ``w_f`` = :func:`default_omega_f` (a decade
-        below the band), equal to ``F / s^2`` in the band to a relative error of about
-        ``2 w_f / w`` (magnitude ``(w_f / w)^2``, 1% at the lower band edge).
+        correction modes ``F (s + 3 w_f) / (s + w_f)^3`` (a triple real pole per input) with
+        ``w_f`` = :func:`default_omega_f` (a decade below the band), equal to ``F / s^2`` in
+        the band to a relative error of ``3 (w_f / w)^2`` (3% at the lower band edge, phase
+        included; :func:`sdctrl._lib.statespace.mass_correction`).
 
     Returns
     -------
@@ -105,7 +106,8 @@ def to_statespace(model, quantity: str = "displacement", omega_c: float | None =
     dyad of each pole of the residual dynamics (``r``, ``dr``; at most ``2 m min(ns, na)``,
     ``2 m`` for dyadic residues), plus ``2 na`` when a correction filter is needed (``zc``,
     ``dzc``: ``E`` for velocity/acceleration, and for acceleration the ``s`` term of the
-    residual dynamics), plus ``2 na`` for ``F`` (``zr``, ``dzr``).
+    residual dynamics), plus ``3 na`` for ``F`` (``zr``, ``dzr``, ``ddzr``; ``2 na`` with
+    ``rigid_body=True``).
 
     For velocity/acceleration a term ``E`` cannot be a proper feedthrough.  Each
     actuator gets a critically damped correction mode ``w_c^2/(s + w_c)^2`` (2.20):
@@ -168,6 +170,7 @@ def _realisation(model, k: int, omega_c: float | None, rigid_body: bool):
                       [f"zc{j}" for j in range(na)] + [f"dzc{j}" for j in range(na)]))
     if model.F is not None:
         wf = 0.0 if rigid_body else default_omega_f(model)
+        names = ["zr", "dzr"] + ([] if rigid_body else ["ddzr"])
         parts.append((*mass_correction(model.F, wf, k),
-                      [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]))
+                      [f"{x}{j}" for x in names for j in range(na)]))
     return _append(parts, A, B, C, D, states)
