@@ -156,6 +156,10 @@ def test_operations_keep_the_residual_block_at_the_tested_io():
     for m2 in (nm.modified(dOmega=0.01 * nm.Omega), nm.proportional(),
                nm.with_feedback(nm.phib[:, :1], nm.phib[:, :1].T, kv=1.0, modal=True)):
         assert m2.residual is nm.residual and m2.n == n
+    # the uncertain model (5.5) holds the normal modes only, and says so
+    with pytest.warns(RuntimeWarning, match="residual dynamics .* not part of the uncertain"):
+        um = nm.replace(F=None).uncertain(dOmega=0.01 * np.abs(nm.Omega))
+    assert um.model.n == n
     # placed by label: a model on a subset of the sensors gets the residual at those only
     sub = nm.replace(cphi=nm.cphi[[2, 0]], E=None if nm.E is None else nm.E[[2, 0]],
                      F=None if nm.F is None else nm.F[[2, 0]], sensors=nm.sensors[2::-2])

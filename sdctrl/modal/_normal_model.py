@@ -319,9 +319,22 @@ class NormalModeModel(FrozenState):
         Returns
         -------
         UncertainModel
+            On the normal modes (and ``E``) only.
+
+        Warns
+        -----
+        RuntimeWarning
+            The model has :attr:`residual` dynamics: they are not part of the uncertain model.
         """
         from sdctrl.robust._uncertainty import uncertain
 
+        if self.residual is not None:
+            import warnings
+
+            warnings.warn(f"uncertain: the residual dynamics ({self.residual.m} complex "
+                          "pole(s), nm.residual) are not part of the uncertain model, whose "
+                          "nominal and LFT hold the normal modes only", RuntimeWarning,
+                          stacklevel=2)
         return uncertain(self, dGamma=dGamma, dOmega=dOmega, db=db, dc=dc)
 
     def frf(self, freq, quantity: str = "displacement"):
