@@ -56,8 +56,9 @@ assert p.size == truth.size == 12 and f_err.max() < 1e-3 and z_err.max() < 0.05
 ratios = cm.singular_value_ratios()[cm.in_band]
 print("second singular value / first, per mode:", np.round(ratios[:, 1], 3))
 
-# 3. normal modes with the full damping matrix, from every pole: the one fitted just above
-# the band carries the modes beyond it (leaving it out costs ~10% of the FRF near 60 Hz).
+# 3. normal modes with the full damping matrix from the in-band poles; the one fitted just
+# above the band carries the modes beyond it and is kept as it is, a complex mode in
+# nm.residual (leaving it out would cost ~10% of the FRF near 60 Hz).
 # With 1% noise its damping direction may come out very slightly negative: normal_modes
 # then warns, with the size and what to do.
 nm = sd.normal_modes(cm)

@@ -189,24 +189,30 @@ def test_rms_undamped_poles_outside_the_band_closed_form():
 
 
 def test_rms_of_the_readme_identified_model_and_its_closed_loop():
-    """Issue 22: the README's identified normal-mode model (its residual mass realised as
-    double integrators) has a finite 8-60 Hz RMS, within 1e-4 of the quadrature of nm.frf
-    (issue: 1%);
-    closing a collocated rate loop keeps it finite and lowers it."""
+    """Issue 22: the README's identified normal-mode model has a finite 8-60 Hz RMS within 1%
+    of the quadrature of nm.frf: its residual mass realised by default as stable correction
+    modes a decade below the band (measured 0.63%; closed
+    loop 1.07%), and exactly (1e-4) as double integrators
+    with rigid_body=True; closing a collocated rate loop keeps it finite and lowers it."""
     import sdctrl as sd
 
     frf = sd.testbed_frf(noise=0.01, seed=0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        nm = sd.normal_modes(sd.identify(frf))
-    G = nm.to_statespace()
-    lam = np.linalg.eigvals(G.A)
-    assert np.sum(np.abs(lam) < 1e-6) > 0                   # undamped poles at 0 are there
+        nm = sd.normal_modes(sd.identify(frf), std=False)
+    assert nm.F is not None
     f = np.linspace(8.0, 60.0, 100001)
     H = nm.frf(f).H                                          # (nf, ns, na) displacement
-    got = rms(G, (8.0, 60.0))
     ref = np.sqrt(np.trapezoid(np.sum(np.abs(H) ** 2, axis=2), f, axis=0))
-    np.testing.assert_allclose(got, ref, rtol=1e-4)
+    rigid = nm.to_statespace(rigid_body=True)
+    assert np.sum(np.abs(np.linalg.eigvals(rigid.A)) < 1e-6) == 2 * nm.na   # poles at 0
+    np.testing.assert_allclose(rms(rigid, (8.0, 60.0)), ref, rtol=1e-4)
+    G = nm.to_statespace()
+    assert G.nstates == rigid.nstates + nm.na
+    assert np.linalg.eigvals(G.A).real.max() < 0            # asymptotically stable
+    got = rms(G, (8.0, 60.0))
+    np.testing.assert_allclose(got, ref, rtol=1e-2)
+    np.testing.assert_allclose(sd.rms(nm, (8.0, 60.0)), got, rtol=1e-12)
     # u0 = -k s / (tau s + 1)^2 y0: a rate loop on the first collocated pair, strictly proper
     tau, kv = 1.0 / (2 * np.pi * 500.0), 3e3
     rate = control.ss(control.tf([kv, 0.0], [tau ** 2, 2 * tau, 1.0]))
@@ -218,7 +224,7 @@ def test_rms_of_the_readme_identified_model_and_its_closed_loop():
     Hc = H - H[:, :, [0]] * (k / (1 + k * H[:, [0], [0]][:, :, None])) * H[:, [0], :]
     after = rms(closed, (8.0, 60.0))
     np.testing.assert_allclose(after, np.sqrt(np.trapezoid(np.sum(np.abs(Hc) ** 2, axis=2), f,
-                                                           axis=0)), rtol=1e-4)
+                                                           axis=0)), rtol=1.6e-2)
     assert after[0] < 0.9 * got[0]
 
 

@@ -165,13 +165,23 @@ def test_proportional_damping_gives_diagonal_gamma():
     assert _errors(nm, true)[1] < 1e-10
 
 
-def test_fewer_sensors_than_modes_is_refused():
+def test_fewer_sensors_than_modes_keeps_the_rest_as_residual():
+    """5 sensors for 6 modes (and fewer actuators: no transposition): 5 normal modes (3.46),
+    the least proper one kept as it is in the residual dynamics, named with the reason."""
     true, col = _truth(12)
     cm = _complex_modes(true, col)
     few = cm.replace(residues=cm.residues[:, :5], E=cm.E[:5], F=cm.F[:5], sensors=cm.sensors[:5],
                      collocated=[(0, 0), (4, 1)])
-    with pytest.raises(ValueError, match=r"fewer sensors \(5\) than modes \(6\)"):
-        sd.normal_modes(few)
+    with pytest.warns(RuntimeWarning, match=r"fewer sensors \(5\) than modes"):
+        nm = sd.normal_modes(few, std=False)
+    assert nm.n == 5 and nm.residual.m == 1
+    j = int(nm.residual.source[0])
+    assert sorted(nm.properness.poles_used.tolist() + [j]) == list(range(6))
+    assert "fewer sensors (5)" in nm.residual.reasons[0]
+    assert nm.residual.poles[0] == few.poles[j]
+    assert np.array_equal(nm.residual.residues[0], few.residues[j])
+    f = np.linspace(5.0, 40.0, 300)
+    assert costs.logls(nm.frf(f).H, few.frf(f).H) < 0.1          # measured 0.077
 
 
 # --- non-proper (identified-like) complex modes: the Riccati correction ---------------------
@@ -248,10 +258,15 @@ def test_non_positive_definite_mass_is_reported():
     cm = _complex_modes(true, col)
     R = cm.residues.copy()
     R[3] *= -1
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        with pytest.raises(ValueError, match="mass .* not positive definite"):
-            sd.normal_modes(cm.replace(residues=R))
+    bad = cm.replace(residues=R)
+    with pytest.warns(RuntimeWarning, match="mass .* not positive definite"):
+        nm = sd.normal_modes(bad, std=False)
+    # never all or nothing: the other five are normal modes, mode 3 stays as it is
+    assert nm.properness.poles_used.tolist() == [0, 1, 2, 4, 5]
+    assert nm.residual.source.tolist() == [3]
+    assert "mass" in nm.residual.reasons[0] and "not positive definite" in nm.residual.reasons[0]
+    f = np.linspace(5.0, 40.0, 300)
+    assert costs.logls(nm.frf(f).H, bad.frf(f).H) < 1e-4               # measured 7.0e-6
 
 
 def test_non_positive_damping_is_warned_and_reported():
@@ -294,10 +309,15 @@ def test_large_correction_is_refused():
     cm = _complex_modes(true, col)
     R = cm.residues.copy()
     R[2] *= 1j                                   # phase-rotated mode: far from proper
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        with pytest.raises(ValueError, match=r"cm: .*(Riccati|positive definite)"):
-            sd.normal_modes(cm.replace(residues=R))
+    bad = cm.replace(residues=R)
+    with pytest.warns(RuntimeWarning, match=r"pole\(s\) 2 .*Riccati"):
+        nm = sd.normal_modes(bad, std=False)
+    assert nm.properness.poles_used.tolist() == [0, 1, 3, 4, 5]
+    assert nm.residual.source.tolist() == [2]
+    assert "Riccati equation (3.52) has no small real root" in nm.residual.reasons[0]
+    assert nm.properness.poles_left_out.size == 0          # nothing lost
+    f = np.linspace(5.0, 40.0, 300)
+    assert costs.logls(nm.frf(f).H, bad.frf(f).H) < 1e-4               # measured 4.6e-6
 
 
 # --- the thesis's comparison (3.3.4): full Gamma vs Gamma forced diagonal ------------------
@@ -351,10 +371,18 @@ def test_bad_input():
         sd.normal_modes(cm, tol=-1.0)
     with pytest.raises(ValueError, match="maxiter must be"):
         sd.normal_modes(cm, maxiter=0)
-    # a mode with no response at the collocated sensor cannot be scaled
+    with pytest.raises(TypeError, match="std must be True or False"):
+        sd.normal_modes(cm, std=1)
+    # a mode with no response at the collocated sensor cannot be scaled: kept as it is
     R = cm.residues.copy()
     R[1, 0, :] = 0.0
-    with pytest.raises(ValueError, match="mode 1 is not observed at the collocated pairs"):
+    with pytest.warns(RuntimeWarning, match="mode 1 is not observed at the collocated pairs"):
+        nm = sd.normal_modes(cm.replace(residues=R), [(0, 0)], std=False)
+    assert nm.residual.source.tolist() == [1] and nm.n == 5
+    assert "mode 1 is not observed at the collocated pairs" in nm.residual.reasons[0]
+    # no pole at all can be a mode: an error naming each pole's reason
+    R[:, 0, :] = 0.0
+    with pytest.raises(ValueError, match="no pole can be made a normal mode"):
         sd.normal_modes(cm.replace(residues=R), [(0, 0)])
     # nothing the caller passed is modified
     pairs = [[0, 0], [4, 1]]
@@ -417,15 +445,27 @@ def test_statespace_with_low_frequency_correction_F(quantity):
     s = 2j * np.pi * f[:, None, None]
     k = {"displacement": 0, "velocity": 1, "acceleration": 2}[quantity]
     assert np.allclose(H - H0, F[None] / s**2 * s**k, rtol=1e-12, atol=0)
-    # realised exactly by one rigid-body correction mode per actuator (2.24)
-    G = nm.to_statespace(quantity)
+    # realised exactly by one rigid-body correction mode per actuator on request (2.24)
+    G = nm.to_statespace(quantity, rigid_body=True)
     assert G.nstates == 2 * nm.n + 2 * 3
     assert np.abs(_ss_frf(G, f) - H).max() < 1e-8 * np.abs(H).max()
+    # by default by stable critically damped modes a decade below the lowest mode (no band):
+    # exactly F (s + 3 w_f) / (s + w_f)^3, within 3 (w_f / w)^2 (1 + 3 w_f / w) of F / s^2
+    G = nm.to_statespace(quantity)
+    assert G.nstates == 2 * nm.n + 3 * 3
+    assert np.linalg.eigvals(G.A).real.max() < 0
+    wf = 0.1 * 2 * np.pi * FREQ_HZ[0]
+    HF = H0 + F[None] * (s + 3 * wf) / (s + wf) ** 3 * s**k
+    assert np.abs(_ss_frf(G, f) - HF).max() < 1e-8 * np.abs(HF).max()
+    x = wf / (2 * np.pi * f[:, None, None])
+    rel = np.abs(HF - H) / np.abs(F[None] / s**2 * s**k)
+    assert np.all(rel <= 3 * x**2 * (1 + 3 * x)) and rel[f >= 8.0].max() < 0.03
     # with both E (displacement exact) and F
     nmEF = nm.replace(E=E)
     if k == 0:
         HEF = nmEF.frf(f).H
-        assert np.abs(_ss_frf(nmEF.to_statespace(), f) - HEF).max() < 1e-8 * np.abs(HEF).max()
+        G = nmEF.to_statespace(rigid_body=True)
+        assert np.abs(_ss_frf(G, f) - HEF).max() < 1e-8 * np.abs(HEF).max()
     # copies keep F
     assert np.array_equal(nm.proportional().F, F)
 

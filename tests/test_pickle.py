@@ -235,6 +235,9 @@ def _instance(name):
         "StorageWarning": lambda: CLASSES["StorageWarning"]("old file"),
         "ImpactWarning": lambda: CLASSES["ImpactWarning"]("double hit in hit 2"),
         "TestStructure": lambda: sd.testbeds.structure("plate"),
+        "ResidualDynamics": lambda: normal().residual or CLASSES["ResidualDynamics"](
+            identified().poles[:2], identified().residues[:2], identified().sensors,
+            identified().actuators, ("out of band", "Riccati"), np.array([0, 1])),
     }
     return makers[name]()
 

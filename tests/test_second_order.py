@@ -64,14 +64,15 @@ def test_kernel_refuses_a_fourth_derivative():
 @pytest.mark.parametrize("with_F", [False, True])
 @pytest.mark.parametrize("quantity", QUANTITIES)
 def test_normal_mode_statespace_is_the_kernel_plus_exact_static_terms(quantity, with_F):
-    """E is realised exactly for displacement, F (residual mass) for every quantity: the
-    StateSpace FRF equals the model's own FRF (2.15).  With F the state matrix holds double
-    integrators (a defective A), whose evaluation loses a few digits: 1e-9 there."""
+    """E is realised exactly for displacement, F (residual mass) for every quantity with
+    rigid_body=True (2.24): the StateSpace FRF equals the model's own FRF (2.15).  With F the
+    state matrix holds double integrators (a defective A), whose evaluation loses a few
+    digits: 1e-9 there."""
     rng = np.random.default_rng(0)
     E = 1e-4 * rng.standard_normal((3, 2)) if quantity == "displacement" else None
     m = _model(E=E, F=1e-2 * rng.standard_normal((3, 2)) if with_F else None)
     freq = np.linspace(0.5, 70.0, 600)
-    G = m.to_statespace(quantity)
+    G = m.to_statespace(quantity, rigid_body=True)
     H = sd.FRF.from_system(G, freq, quantity).H
     ref = m.frf(freq, quantity).H
     assert np.abs(H - ref).max() < (1e-9 if with_F else 1e-12) * np.abs(ref).max()

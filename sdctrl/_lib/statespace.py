@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["correction_filter", "modal_states", "second_order", "ss_frf"]
+__all__ = ["complex_blocks", "correction_filter", "mass_correction", "modal_states",
+           "second_order", "ss_frf"]
 
 
 def second_order(Omega, Gamma, phib, cphi, k: int = 0):
@@ -99,6 +100,118 @@ def correction_filter(P1, P2, wc: float):
     B = np.vstack([Zi, wc**2 * Ii])
     C = np.hstack([-wc**2 * P2, P1 - 2 * wc * P2])
     return A, B, C, wc**2 * P2
+
+
+def complex_blocks(poles, residues):
+    """Real 2-state blocks of complex modes, thesis (3.26)-(3.33) with ``a = 1``.
+
+    ``sum_j R_j / (s - lambda_j) + conj(R_j) / (s - conj(lambda_j))`` realised with one
+    block ``[[0, 1], [-|lambda|^2, 2 Re(lambda)]]`` per non-negligible dyad of each
+    residue (singular values above ``1e-13`` of the largest): the complex-mode terms as
+    they are, without any scaling by collocated residues.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (m,), complex
+        Poles (rad/s), upper half-plane.
+    residues : ndarray, shape (m, ns, na), complex
+        Displacement residues.
+
+    Returns
+    -------
+    A : ndarray, shape (2r, 2r)
+    B : ndarray, shape (2r, na)
+    C : ndarray, shape (ns, 2r)
+    states : list of str
+        ``x{j}_{k}``, ``dx{j}_{k}`` for dyad ``k`` of pole ``j``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, B, C, st = complex_blocks(np.array([-1 + 10j]), np.array([[[-0.05j]]]))
+    >>> H = ss_frf(A, B, C, np.zeros((1, 1)), [3.0])[0, 0, 0]
+    >>> bool(np.isclose(H, -0.05j / (3j + 1 - 10j) + 0.05j / (3j + 1 + 10j)))
+    True
+    """
+    poles = np.asarray(poles, complex)
+    residues = np.asarray(residues, complex)
+    m, ns, na = residues.shape
+    blocks_A, Cs, Bs, states = [], [], [], []
+    U, sv, Vh = np.linalg.svd(residues, full_matrices=False) if m else (None, None, None)
+    for j in range(m):
+        lam = poles[j]
+        w, zw, wd = abs(lam), -lam.real, lam.imag
+        smax = sv[j, 0] if sv.shape[1] else 0.0
+        for k in range(sv.shape[1]):
+            if smax == 0 or sv[j, k] <= 1e-13 * smax:
+                continue
+            cpsi, psib = U[j, :, k], sv[j, k] * Vh[j, k, :]
+            blocks_A.append(np.array([[0.0, 1.0], [-w**2, -2 * zw]]))
+            Cs.append(np.column_stack([cpsi.real + (zw / wd) * cpsi.imag, cpsi.imag / wd]))
+            Bs.append(np.vstack([2 * psib.real, -2 * (zw * psib.real + wd * psib.imag)]))
+            states += [f"x{j}_{k}", f"dx{j}_{k}"]
+    r = len(blocks_A)
+    A = np.zeros((2 * r, 2 * r))
+    for i, Aj in enumerate(blocks_A):
+        A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = Aj
+    B = np.vstack(Bs) if Bs else np.zeros((0, na))
+    C = np.hstack(Cs) if Cs else np.zeros((ns, 0))
+    return A, B, C, states
+
+
+def mass_correction(F, wf: float, k: int = 0):
+    """``F / s^2`` of a residual mass (2.23): correction modes below the band or rigid (2.24).
+
+    With ``w_f > 0``, stable critically damped correction modes (a triple real pole at
+    ``-w_f`` per input), ``F (s + 3 w_f) / (s + w_f)^3``: the low-frequency counterpart of
+    (2.19)-(2.20), equal to ``F / s^2`` in the band (``w >> w_f``) to a relative error of
+    ``3 (w_f / w)^2`` (3% a decade above ``w_f``, phase included) -- the numerator cancels the
+    first-order error ``2 w_f / w`` of the plain critically damped mode ``1 / (s + w_f)^2``,
+    which shifts the phase by 11 degrees a decade above ``w_f``.  States ``[z; z'; z'']``
+    per input, ``z^(3) + 3 w_f z'' + 3 w_f^2 z' + w_f^3 z = u``, output ``F (z' + 3 w_f z)``
+    and its derivatives.  ``w_f = 0`` gives the exact rigid-body form (2.24), double
+    integrators ``z'' = u`` (states ``[z; z']``, poles at 0), output ``F z`` and derivatives.
+
+    Parameters
+    ----------
+    F : ndarray, shape (ns, na)
+        Residual mass term of the displacement response.
+    wf : float
+        Corner (rad/s) of the correction modes, 0 for the rigid-body form.
+    k : {0, 1, 2}
+        Output derivative.
+
+    Returns
+    -------
+    A : ndarray, shape (3na, 3na), or (2na, 2na) when ``wf == 0``
+    B : ndarray, shape (3na, na) or (2na, na)
+    C : ndarray, shape (ns, 3na) or (ns, 2na)
+    D : ndarray, shape (ns, na)
+
+    Examples
+    --------
+    >>> A, B, C, D = mass_correction([[2.0]], 0.0, k=2)
+    >>> A.tolist(), B.tolist(), C.tolist(), D.tolist()
+    ([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[0.0, 0.0]], [[2.0]])
+    >>> A, B, C, D = mass_correction([[2.0]], 1.0, k=0)
+    >>> A.tolist(), C.tolist()
+    ([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, -3.0, -3.0]], [[6.0, 2.0, 0.0]])
+    """
+    F = np.asarray(F, float)
+    ns, na = F.shape
+    Ii, Zi, Zs = np.eye(na), np.zeros((na, na)), np.zeros((ns, na))
+    if wf == 0:
+        A = np.block([[Zi, Ii], [Zi, Zi]])
+        B = np.vstack([Zi, Ii])
+        C = [np.hstack([F, Zs]), np.hstack([Zs, F]), np.hstack([Zs, Zs])][k]
+        return A, B, C, (F.copy() if k == 2 else Zs)
+    A = np.block([[Zi, Ii, Zi], [Zi, Zi, Ii], [-wf**3 * Ii, -3 * wf**2 * Ii, -3 * wf * Ii]])
+    B = np.vstack([Zi, Zi, Ii])
+    if k == 0:
+        return A, B, np.hstack([3 * wf * F, F, Zs]), Zs
+    if k == 1:
+        return A, B, np.hstack([Zs, 3 * wf * F, F]), Zs
+    return A, B, np.hstack([-wf**3 * F, -3 * wf**2 * F, Zs]), F.copy()
 
 
 def modal_states(n: int) -> list[str]:

@@ -30,6 +30,7 @@ from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
+from sdctrl.identification._mode_split import OUT_OF_BAND, residual_block, split_modes
 
 __all__ = ["Properness", "normal_modes", "scaled_modes"]
 
@@ -87,7 +88,8 @@ class Properness(FrozenState):
     poles_used : ndarray of int
         Poles of the complex-mode model transformed.
     poles_left_out : ndarray of int
-        The other poles (:func:`sdctrl.hybrid` warns about them).
+        Poles neither made modes nor kept as residual dynamics (``modes=`` left them out;
+        :func:`sdctrl.hybrid` warns about them).  The residual ones are ``nm.residual.source``.
     poles_left_out_hz : ndarray
         Their frequencies (Hz).
     """
@@ -127,7 +129,8 @@ class Properness(FrozenState):
         freeze_arrays(self)
 
 
-def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter: int = 50):
+def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter: int = 50,
+                 std: bool = True):
     """Normal-mode model with non-proportional damping from a complex-mode model (3.3).
 
     Steps (thesis section 3.3):
@@ -152,28 +155,43 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     The poles of the result are the identified poles (the transformation is exact for
     proper modes); the maximum relative deviation is ``nm.properness.pole_error``.
 
+    Never all or nothing: the in-band poles become normal modes, the out-of-band poles
+    (``cm.in_band`` False: fitted to absorb modes outside the band, one may stand for
+    several) and the poles whose properness cannot be enforced (no small real root of
+    (3.52), unscalable at the collocated pairs (3.24), more modes than sensors (3.46)) are
+    kept as they are, complex-mode terms (3.7) in ``nm.residual``
+    (:class:`~sdctrl.modal.ResidualDynamics`, realised in the 2x2-block form 3.26-3.33).
+    So the normal-mode model reproduces the identified model at the tested I/O.  Which
+    poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
+    ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
+    dynamics have no shapes: :meth:`~sdctrl.NormalModeModel.modified`,
+    :meth:`~sdctrl.NormalModeModel.with_feedback` and ``with_io`` act on the normal modes
+    and keep them at the tested I/O; :func:`sdctrl.hybrid` builds on the normal modes only
+    (its FE modes stand for the out-of-band dynamics).
+
     Parameters
     ----------
     cm : ComplexModeModel
-        Identified complex modes (displacement residues) with at least as many sensors
-        as modes.  Every pole of ``cm`` becomes a normal mode; its ``E`` and ``F``
+        Identified complex modes (displacement residues).  Its ``E`` and ``F``
         asymptotic terms are carried over unchanged.
     collocated : sequence of (int or str, int or str), optional
         Collocated ``(sensor, actuator)`` pairs (indices or labels) used to scale the
         complex modes (3.24); default ``cm.collocated``.  Several pairs are combined in
         the least-squares sense.
     modes : array_like of int or bool, optional
-        Modes of ``cm`` to transform (indices, or a boolean mask such as ``cm.in_band``).
-        The default -- the one to use -- is every pole, in-band or not: properness
-        enforced on the full set fits the data best (leaving the out-of-band poles out
-        loses their contribution near the band edges, several percent of the FRF), and
-        :func:`sdctrl.hybrid` keeps the out-of-band modes that pair with an FE mode and
-        absorbs the others into its residual terms.  Only if the transformation fails
-        with them are the out-of-band poles left out, with a warning.
+        Poles of ``cm`` to make normal modes (indices, or a boolean mask); the others
+        are left out (``properness.poles_left_out``, their contribution lost), except
+        those whose properness cannot be enforced, kept as residual dynamics.  Default:
+        the in-band poles become modes (every pole when none or all are in band), the
+        out-of-band poles residual dynamics -- nothing is lost.
     tol : float
         Relative tolerance of the Newton iteration on the Riccati residual (3.52).
     maxiter : int
         Maximum number of Newton iterations.
+    std : bool
+        Propagate the identification's statistics to ``nm.std`` (3.4, finite differences
+        of the transformation: seconds on a 20-mode test).  False skips it (``nm.std`` is
+        None).  ``nm.std`` covers the normal modes only.
 
     Returns
     -------
@@ -183,27 +201,25 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         ``1e-10`` of the modal flexibility scale, see ``properness.E_relative_size``),
         labels of ``cm``, and ``properness``: the :class:`Properness` record of the
         construction (properness before/after, ``delta``, ``M_T``/``C_T``/``K_T`` and
-        their definiteness, pole and residue errors, the poles used).
+        their definiteness, pole and residue errors, the poles used), and ``residual``:
+        the poles kept as complex modes with their reasons (None when every pole is a mode).
 
     Raises
     ------
     TypeError
         ``cm`` is not a ComplexModeModel or ``collocated`` is not a sequence of pairs.
     ValueError
-        No collocated pair, pairs out of range, fewer sensors than modes (not treated
-        by the thesis) with no more actuators than sensors (else the transposed test is used,
-        with a warning: reciprocity, a roving-hammer survey), a mode unobserved at the collocated pairs, a Riccati iteration
-        that does not converge to a small root (``|eig(delta)| < 0.9``; the minimum
-        condition 3.54 needs ``< 1``), or an identified mass
-        or stiffness (3.45) that is not positive definite.
+        No collocated pair, pairs out of range, or no pole at all that can be made a
+        normal mode.  With fewer sensors than modes and more actuators than sensors the
+        transposed test is used, with a warning (reciprocity, a roving-hammer survey).
 
     Warns
     -----
     RuntimeWarning
         Non-positive-definite damping (3.45), a large correction
         (``|eig(delta)| > 0.5``), poles of the result that depart from the identified
-        ones by more than ``1e-6``, or out-of-band poles left out because the
-        transformation fails with them.
+        ones by more than ``1e-6``, or poles kept as residual dynamics because properness
+        cannot be enforced on them (named, with the reason).
 
     Examples
     --------
@@ -231,33 +247,61 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     if isinstance(maxiter, bool) or not isinstance(maxiter, int | np.integer) or maxiter < 1:
         raise ValueError(f"maxiter must be a positive integer, got {maxiter!r}")
-    if needs_transpose(cm, cm.n if modes is None else _mode_selection(modes, cm.n).size):
-        return via_transpose(normal_modes, cm, pairs, modes=modes, tol=tol, maxiter=maxiter)
+    if not isinstance(std, bool | np.bool_):
+        raise TypeError(f"std must be True or False, got {std!r}")
     in_band = np.asarray(cm.in_band, bool)
+    reasons = {}
     if modes is not None:
-        return _transform(cm, _mode_selection(modes, cm.n), pairs, tol, maxiter)
-    sel = np.arange(cm.n)
-    if in_band.all() or in_band.sum() == 0:
-        return _transform(cm, sel, pairs, tol, maxiter)
-    try:
-        return _transform(cm, sel, pairs, tol, maxiter)
-    except ValueError as exc:
-        out = np.flatnonzero(~in_band)
-        warnings.warn(f"normal_modes: with the out-of-band pole(s) {out.tolist()} "
-                      f"({np.round(cm.frequency[out], 3).tolist()} Hz) the transformation "
-                      f"fails ({exc}); they are left out and their contribution is lost",
-                      RuntimeWarning, stacklevel=2)
-        return _transform(cm, np.flatnonzero(in_band), pairs, tol, maxiter)
+        cand = _mode_selection(modes, cm.n)
+    elif in_band.all() or not in_band.any():
+        cand = np.arange(cm.n)
+    else:
+        cand = np.flatnonzero(in_band)
+        reasons = {int(j): OUT_OF_BAND for j in np.flatnonzero(~in_band)}
+    if needs_transpose(cm, cand.size):
+        return _transposed(cm, pairs, modes=modes, tol=tol, maxiter=maxiter, std=std)
+    sel, failed = split_modes(cand, cm.ns,
+                              lambda idx: _transform(cm, idx, pairs, tol, maxiter, False))
+    if sel.size == 0:
+        raise ValueError("cm: no pole can be made a normal mode (" + "; ".join(
+            f"{j}: {why}" for j, why in sorted({**reasons, **failed}.items())) + ")")
+    if failed:
+        warnings.warn("normal_modes: pole(s) " + "; ".join(
+            f"{j} ({cm.frequency[j]:.4g} Hz): {why}" for j, why in sorted(failed.items()))
+            + " -- kept as complex-mode residual dynamics (nm.residual)", RuntimeWarning,
+            stacklevel=2)
+    reasons.update(failed)
+    nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons))
+    return nm.replace(residual=residual_block(cm, reasons))
 
 
-def _transform(cm, sel, pairs, tol, maxiter):
-    """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm``."""
+def _transposed(cm, pairs, **options):
+    """:func:`normal_modes` on the transposed test (reciprocity), residual dynamics and
+    statistics turned back with the model."""
+    keep = []
+
+    def inner(cm_t, pairs_t, **opts):
+        nm_t = normal_modes(cm_t, pairs_t, **opts)
+        keep.append(nm_t)
+        return nm_t.replace(residual=None, std=None)
+
+    nm = via_transpose(inner, cm, pairs, **options)
+    res, sd = keep[0].residual, keep[0].std
+    if sd is not None:
+        sd = {"Omega": sd["Omega"], "Gamma": sd["Gamma"].T, "cphi": sd["phib"].T,
+              "phib": sd["cphi"].T}
+    return nm.replace(residual=None if res is None else res.transposed(), std=sd)
+
+
+def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
+    """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm`` (``residual``: the
+    poles kept as residual dynamics, not left out)."""
     from sdctrl.modal._normal_model import NormalModeModel
 
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
     _check_poles(lam, cm.ns)
     with single_thread():                         # small matrices: BLAS threads only hurt
-        cpsi, psib = scaled_modes(R, pairs)
+        cpsi, psib = scaled_modes(R, pairs, sel)
         cT, sensor_ev = _reduced_coordinates(cpsi, lam)
         psi = cT.T @ cpsi                                              # (3.46) LS fit
         # --- properness (3.40) by the optimal correction (3.51)-(3.52) ------------------
@@ -281,7 +325,7 @@ def _transform(cm, sel, pairs, tol, maxiter):
         warnings.warn(f"normal_modes: poles of the normal-mode model depart from the "
                       f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
                       stacklevel=3)
-    left = np.setdiff1d(np.arange(cm.n), sel)
+    left = np.setdiff1d(np.arange(cm.n), np.union1d(sel, np.asarray(residual, int)))
     Rn = _residues(cphi, Psi, phib)
     record = Properness(
         collocated=tuple(pairs), cpsi=cpsi, psib=psib, c_T=cT, sensor_eigenvalues=sensor_ev,
@@ -294,8 +338,11 @@ def _transform(cm, sel, pairs, tol, maxiter):
         band=None if cm.band is None else tuple(float(v) for v in cm.band),
         poles_used=np.asarray(sel), poles_left_out=left,
         poles_left_out_hz=np.asarray(cm.frequency)[left])
-    again = lambda c: _transform(c, sel, pairs, tol, maxiter)  # noqa: E731 -- std by (3.4)
-    return with_std(nm.replace(properness=record), cm, again)
+    nm = nm.replace(properness=record)
+    if not std:
+        return nm
+    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False)  # noqa: E731 -- (3.4)
+    return with_std(nm, cm, again)
 
 
 def _check_poles(lam, ns: int) -> None:
@@ -342,7 +389,7 @@ def _mode_in_band(w2, lam, in_band) -> np.ndarray:
 
 
 # --- steps ---------------------------------------------------------------------------------
-def scaled_modes(residues: np.ndarray, pairs) -> tuple[np.ndarray, np.ndarray]:
+def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, np.ndarray]:
     """Scaled complex modal observability and controllability, eq. (3.24)-(3.25).
 
     The dyadic part of each residue ``R_j ~ u_j w_j^T`` (first singular pair, 3.23) is
@@ -357,6 +404,8 @@ def scaled_modes(residues: np.ndarray, pairs) -> tuple[np.ndarray, np.ndarray]:
         Residues of the complex-mode model.
     pairs : sequence of (int, int)
         Collocated (sensor, actuator) index pairs.
+    index : sequence of int, optional
+        Index of each mode in the complex-mode model, for the error messages.
 
     Returns
     -------
@@ -364,13 +413,14 @@ def scaled_modes(residues: np.ndarray, pairs) -> tuple[np.ndarray, np.ndarray]:
     psib : ndarray, shape (n, na)
     """
     cpsi, psib, k = scale_residues(residues, pairs)
-    for j in range(cpsi.shape[1]):
-        if k["sigma1"][j] == 0:
+    index = range(cpsi.shape[1]) if index is None else index
+    for i, j in enumerate(index):
+        if k["sigma1"][i] == 0:
             raise ValueError(f"cm: mode {j} has a zero residue matrix and cannot be scaled")
-        if k["observed"][j] < 1e-12 * len(pairs):
+        if k["observed"][i] < 1e-12 * len(pairs):
             raise ValueError(f"cm: mode {j} is not observed at the collocated pairs "
                              f"{tuple(pairs)}; it cannot be scaled (3.24)")
-        if k["z"][j] == 0:
+        if k["z"][i] == 0:
             raise ValueError(f"cm: mode {j} is not controlled at the collocated pairs "
                              f"{tuple(pairs)}; it cannot be scaled (3.24)")
     return cpsi, psib

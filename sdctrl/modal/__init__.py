@@ -9,9 +9,12 @@ reduced coordinates re-diagonalised, 5.3-5.4); evaluate it (``frf``) or realise 
 python-control ``StateSpace`` (``to_statespace``, correction modes 2.19-2.24).
 
 - ``_normal_model``: the container, its FRF and state-space realisation;
+- ``_normal_realisation``: its state-space form (modes, residual dynamics, correction modes);
+- ``_residual_dynamics``: complex modes kept as they are (what could not be made proper);
 - ``_operations``: re-diagonalisation after changes of ``Omega``, ``Gamma``, inputs, feedback.
 """
 
 from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.modal._residual_dynamics import ResidualDynamics
 
-__all__ = ["NormalModeModel"]
+__all__ = ["NormalModeModel", "ResidualDynamics"]

@@ -23,8 +23,9 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from sdctrl._lib.frozen import FrozenState
+from sdctrl.modal._normal_realisation import to_statespace
 from sdctrl.modal._operations import modified, poles, with_feedback
-from sdctrl._lib.statespace import correction_filter, modal_states, second_order
+from sdctrl.modal._residual_dynamics import ResidualDynamics
 from sdctrl._lib.display import MAX_ROWS, hz_range, markdown_table, one_line
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
@@ -44,12 +45,14 @@ from sdctrl._lib.signals import signal_names
 __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with_feedback"]
 
 
+
 @dataclass(frozen=True, eq=False)
 class NormalModeModel(FrozenState):
     """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u``.
 
     With a low-frequency correction ``F`` the displacement output is
-    ``y = cphi p + (E + F/s^2) u`` (2.15), (2.24).
+    ``y = cphi p + (E + F/s^2) u`` (2.15), (2.24); with ``residual`` dynamics it adds
+    ``sum_j R_j/(s - lambda_j) + conj(R_j)/(s - conj(lambda_j))`` (3.7) at the tested I/O.
 
     Parameters
     ----------
@@ -77,8 +80,9 @@ class NormalModeModel(FrozenState):
         modal frequency.
     F : array_like, shape (ns, na), optional
         Low-frequency (residual mass) correction of truncated low-frequency modes: the
-        displacement response carries ``F/s^2`` (2.23); ``to_statespace`` realises it
-        exactly with one rigid-body correction mode per actuator (2.24).
+        displacement response carries ``F/s^2`` (2.23); ``to_statespace`` realises it with
+        one correction mode per actuator, critically damped a decade below the band by
+        default (``omega_f``), rigid-body (2.24) with ``rigid_body=True``.
     properness : Properness, optional
         How :func:`sdctrl.normal_modes` built the model from complex modes (3.3): see
         :class:`~sdctrl.identification._proper.Properness`; None for other models.
@@ -91,6 +95,19 @@ class NormalModeModel(FrozenState):
     std : dict, optional
         One standard deviation of each entry of ``"Omega"``, ``"Gamma"``, ``"cphi"``,
         ``"phib"`` (arrays of their shapes) for an identified model; None without statistics.
+        It covers the normal modes only (the residual dynamics have none).
+    residual : ResidualDynamics, optional
+        Complex-mode terms kept as they are (3.7): identified poles that did not become
+        normal modes (out of band, or properness not enforceable), with the reason of each
+        (:attr:`ResidualDynamics.reasons`).  They live at the tested I/O (labels ``sensors``
+        and ``actuators`` of the block) and have no FE shapes: :meth:`frf` and
+        :meth:`to_statespace` add them where the model's labels match; :meth:`modified`,
+        :meth:`with_feedback` and ``with_io`` act on the normal modes and keep the block as
+        it is.  None for models without.
+    omega_f : float, optional
+        Corner (rad/s) of the critically damped low-frequency correction modes realising
+        ``F`` (``F (s + 3 w_f) / (s + w_f)^3``); default a tenth of the lower band edge (``properness.band``), else of the
+        lowest natural frequency.
     """
 
     Omega: np.ndarray
@@ -109,6 +126,8 @@ class NormalModeModel(FrozenState):
     transformation: np.ndarray | None = None
     n_static: int = 0
     std: dict | None = field(default=None, compare=False, repr=False)
+    residual: ResidualDynamics | None = None
+    omega_f: float | None = None
 
     def __post_init__(self):
         Omega = check_square(self.Omega, "Omega")
@@ -159,6 +178,11 @@ class NormalModeModel(FrozenState):
             raise ValueError(f"n_static must be a non-negative integer, got {self.n_static!r}")
         sets(self, "n_static", int(self.n_static))
         sets(self, "std", check_modal_std(self.std, n, ns, na))
+        if self.residual is not None and not isinstance(self.residual, ResidualDynamics):
+            raise TypeError(f"residual must be a ResidualDynamics, got "
+                            f"{type(self.residual).__name__}")
+        sets(self, "omega_f", check_scalar(self.omega_f, "omega_f", positive=True,
+                                           optional=True))
 
     # --- display ------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -168,6 +192,7 @@ class NormalModeModel(FrozenState):
             f"n={self.n}", f"ns={self.ns}", f"na={self.na}", f"band={hz_range(self.frequency)}",
             "full Gamma" if full else "", "E" if self.E is not None else "",
             "F" if self.F is not None else "",
+            "" if self.residual is None else f"residual={self.residual.m} poles",
             "" if self.shapes is None else f"shapes on {self.shapes.shape[0]} DOFs"])
 
     def _repr_markdown_(self) -> str:
@@ -236,6 +261,8 @@ class NormalModeModel(FrozenState):
         Returns
         -------
         NormalModeModel
+            The :attr:`residual` dynamics (no shapes, no modal coordinates) are kept as
+            they are, at the tested I/O.
         """
         return modified(self, dmu, dGamma, dOmega)
 
@@ -260,6 +287,8 @@ class NormalModeModel(FrozenState):
         Returns
         -------
         NormalModeModel
+            The loop acts on the normal modes; the :attr:`residual` dynamics are kept as
+            they are, at the tested I/O (they have no shapes the strut could act on).
         """
         return with_feedback(self, b, c, kp, kv, modal)
 
@@ -290,9 +319,22 @@ class NormalModeModel(FrozenState):
         Returns
         -------
         UncertainModel
+            On the normal modes (and ``E``) only.
+
+        Warns
+        -----
+        RuntimeWarning
+            The model has :attr:`residual` dynamics: they are not part of the uncertain model.
         """
         from sdctrl.robust._uncertainty import uncertain
 
+        if self.residual is not None:
+            import warnings
+
+            warnings.warn(f"uncertain: the residual dynamics ({self.residual.m} complex "
+                          "pole(s), nm.residual) are not part of the uncertain model, whose "
+                          "nominal and LFT hold the normal modes only", RuntimeWarning,
+                          stacklevel=2)
         return uncertain(self, dGamma=dGamma, dOmega=dOmega, db=db, dc=dc)
 
     def frf(self, freq, quantity: str = "displacement"):
@@ -311,10 +353,12 @@ class NormalModeModel(FrozenState):
         """
         return frf(self, freq, quantity)
 
-    def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None):
+    def to_statespace(self, quantity: str = "displacement", omega_c: float | None = None, *,
+                      rigid_body: bool = False):
         """python-control StateSpace with named signals, states ``[p; p']`` (2.15)-(2.24).
 
-        See :func:`sdctrl.modal._normal_model.to_statespace`.
+        See :func:`sdctrl.modal._normal_realisation.to_statespace` (the state count is in
+        its notes).
 
         Parameters
         ----------
@@ -323,24 +367,30 @@ class NormalModeModel(FrozenState):
         omega_c : float, optional
             Cut-off (rad/s) of the critically damped correction mode realising ``E`` for
             velocity/acceleration outputs; default ten times the highest modal frequency.
+        rigid_body : bool
+            Realise ``F`` by the exact rigid-body modes (2.24), poles at 0; default False,
+            stable correction modes a decade below the band (``omega_f``).
 
         Returns
         -------
         control.StateSpace
-            Outputs named after the sensors, inputs after the actuators followed by ``_u``.
+            Outputs named after the sensors, inputs after the actuators followed by ``_u``:
+            ``2 n`` modal states, plus those of :attr:`residual`, of the ``E`` correction
+            (velocity/acceleration, ``2 na``) and of ``F`` (``3 na``, ``2 na`` rigid).
 
         Notes
         -----
         Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
         ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
         """
-        return to_statespace(self, quantity, omega_c)
+        return to_statespace(self, quantity, omega_c, rigid_body=rigid_body)
 
 
 def frf(model: NormalModeModel, freq, quantity: str = "displacement"):
     """FRF of a normal-mode model, eq. (2.15), vectorised over frequency.
 
-    ``H_d(s) = cphi (s^2 I + s Gamma + Omega)^-1 phib + E + F/s^2`` and
+    ``H_d(s) = cphi (s^2 I + s Gamma + Omega)^-1 phib + E + F/s^2`` (plus the residual
+    dynamics, 3.7, at the model's labels that match the block's) and
     ``H_q = (j w)^k H_d`` with ``k = 0, 1, 2`` for displacement, velocity,
     acceleration.
 
@@ -383,100 +433,6 @@ def _frf_array(model: NormalModeModel, omega: np.ndarray) -> np.ndarray:
         H = H + model.E
     if model.F is not None:
         H = H + model.F / (s[:, None, None] ** 2)
+    if model.residual is not None:
+        H = H + model.residual.frf_array(s, model.sensors, model.actuators)
     return H
-
-
-def default_omega_c(model: NormalModeModel) -> float:
-    """Default correction-mode cut-off: ten times the highest modal frequency (rad/s)."""
-    if model.omega_c is not None:
-        return model.omega_c
-    wmax = np.sqrt(max(np.abs(np.diag(model.Omega)).max(), 1e-12)) if model.n else 1.0
-    return 10.0 * wmax
-
-
-def to_statespace(model: NormalModeModel, quantity: str = "displacement",
-                  omega_c: float | None = None):
-    """Real state-space realisation with named signals, states ``[p; p']``.
-
-    Parameters
-    ----------
-    model : NormalModeModel
-    quantity : {"displacement", "velocity", "acceleration"}
-        Output quantity.
-    omega_c : float, optional
-        Cut-off (rad/s) of the critically damped correction mode realising ``E``
-        for velocity/acceleration outputs (2.19)-(2.20); default
-        :func:`default_omega_c`.  Displacement realises ``E`` exactly as a feedthrough.
-
-    Returns
-    -------
-    control.StateSpace
-        Outputs named after ``model.sensors``, inputs after ``model.actuators`` followed
-        by ``_u`` (``.`` replaced by ``_``): sensor ``"N3.z"`` is output ``N3_z``, actuator
-        ``"N3.z"`` input ``N3_z_u``, so a collocated pair never shares a name.
-
-    Raises
-    ------
-    ValueError
-        Two labels of one side with the same signal name (``"a.b"`` and ``"a_b"``), or an
-        input name equal to an output name.
-
-    Notes
-    -----
-    For velocity/acceleration a term ``E`` cannot be a proper feedthrough.  Each
-    actuator gets a critically damped correction mode ``w_c^2/(s + w_c)^2`` (2.20):
-    ``E (j w)^k w_c^2/(j w + w_c)^2`` equals the E term up to a relative error of
-    about ``2 w / w_c`` in the band.
-
-    Static correction modes (2.21)-(2.22) carried as modes of the model are realised like
-    the other modes.  A low-frequency correction ``F`` (2.23) is realised exactly, for every
-    quantity, by one rigid-body correction mode per actuator (2.24), ``z'' = u`` and
-    ``y = F z`` (displacement), ``F z'`` (velocity) or ``F u`` (acceleration): its states
-    ``zr``/``dzr`` are double integrators (poles at 0).
-    """
-    q = check_quantity(quantity, "quantity")
-    omega_c = check_scalar(omega_c, "omega_c", positive=True, optional=True)
-    with np.errstate(all="ignore"):
-        A, B, C, D, states = _realisation(model, QUANTITY_POWER[q], omega_c)
-    check_finite_result([np.abs(X).max(initial=0.0) for X in (A, B, C, D)], "the realisation",
-                        "omega_c or the model's Omega, Gamma, cphi, phib, E, F")
-    import control
-
-    inputs, outputs = signal_names(model.sensors, model.actuators)
-    return control.ss(A, B, C, D, inputs=inputs, outputs=outputs, states=states)
-
-
-def _realisation(model: NormalModeModel, k: int, omega_c: float | None):
-    """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``k``."""
-    n, ns, na = model.n, model.ns, model.na
-    A, B, C, D = second_order(model.Omega, model.Gamma, model.phib, model.cphi, k)
-    states = modal_states(n)
-    if model.E is not None:
-        if k == 0:
-            D = D + model.E
-        else:
-            wc = np.float64(omega_c if omega_c is not None else default_omega_c(model))
-            # E s^k through one critically damped correction state pair per actuator (2.20)
-            Z0 = np.zeros((ns, na))
-            Ac, Bc, Cc, Dc = correction_filter(model.E if k == 1 else Z0,
-                                               model.E if k == 2 else Z0, wc)
-            A = np.block([[A, np.zeros((2 * n, 2 * na))], [np.zeros((2 * na, 2 * n)), Ac]])
-            B = np.vstack([B, Bc])
-            C = np.hstack([C, Cc])
-            D = D + Dc
-            states += [f"zc{j}" for j in range(na)] + [f"dzc{j}" for j in range(na)]
-    if model.F is not None:
-        # one rigid-body correction mode per actuator (2.24): z'' = u, y_d = F z
-        Zr, Ir = np.zeros((na, na)), np.eye(na)
-        Ar = np.block([[Zr, Ir], [Zr, Zr]])
-        Br = np.vstack([Zr, Ir])
-        Cr = [np.hstack([model.F, np.zeros((ns, na))]), np.hstack([np.zeros((ns, na)), model.F]),
-              np.zeros((ns, 2 * na))][k]
-        if k == 2:
-            D = D + model.F
-        m = A.shape[0]
-        A = np.block([[A, np.zeros((m, 2 * na))], [np.zeros((2 * na, m)), Ar]])
-        B = np.vstack([B, Br])
-        C = np.hstack([C, Cr])
-        states += [f"zr{j}" for j in range(na)] + [f"dzr{j}" for j in range(na)]
-    return A, B, C, D, states

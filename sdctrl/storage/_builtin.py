@@ -114,6 +114,8 @@ register_attrs("FitStatistics", "sdctrl.identification._pole_statistics:FitStati
                kinds={k: "f" for k in ("S", "A_inv", "M", "K", "V")}, build=_build_fit_stats)
 register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL,
                build=_build_normal)
+register_attrs("ResidualDynamics", "sdctrl.modal._residual_dynamics:ResidualDynamics",
+               kinds={"poles": "c", "residues": "c", "source": "i"})
 register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL,
                build=_build_hybrid)
 register_attrs("FEModel", "sdctrl.fe:FEModel",

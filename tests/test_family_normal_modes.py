@@ -1,0 +1,197 @@
+"""Normal-mode models on every member of the testbed family (issue 22, normal-mode part; issue
+26, "never all or nothing").
+
+The in-band identified poles become normal modes (properness, thesis 3.44); the out-of-band
+poles and the modes whose properness cannot be enforced stay complex-mode residual dynamics
+(3.7), realised as they are (3.26-3.33), so that the normal-mode model reproduces the
+identified model at the tested I/O.  Acceptance: mean logLS of the normal-mode model against
+the data <= max(3x the identified model's, 0.01) on every member, noise-free and 1% noise;
+each member's figure is also locked at 1.5x its measured value.
+"""
+
+import functools
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+
+import sdctrl as sd
+from sdctrl.identification._mode_split import OUT_OF_BAND
+from sdctrl.updating import logls
+
+#: measured mean logLS of nm against the data (noise-free, 1% noise; seed 1, 400 lines)
+MEASURED = {
+    ("truss", 0.0): 0.00719, ("truss", 0.01): 0.01320,
+    ("truss_high", 0.0): 0.26408, ("truss_high", 0.01): 0.26203,
+    ("ladder", 0.0): 0.04751, ("ladder", 0.01): 0.04765,
+    ("plate", 0.0): 0.00503, ("plate", 0.01): 0.10662,
+    ("cluster", 0.0): 1.01332, ("cluster", 0.01): 1.66780,
+}
+
+
+@functools.cache
+def _chain(name, noise):
+    """(test FRF, identified model, normal-mode model without statistics) of one member."""
+    frf = sd.testbeds.structure(name).frf(n=400, noise=noise, seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cm = sd.identify(frf)
+        nm = sd.normal_modes(cm, std=False)
+    return frf, cm, nm
+
+
+def _error(model, frf):
+    return logls(model.frf(frf.freq, quantity=frf.quantity).H, frf.H)
+
+
+def test_the_family_is_covered():
+    assert {name for name, _ in MEASURED} == set(sd.testbeds.family())
+
+
+@pytest.mark.parametrize("name,noise", sorted(MEASURED))
+def test_normal_modes_reproduce_the_test_on_every_member(name, noise):
+    frf, cm, nm = _chain(name, noise)
+    e_nm, e_id = _error(nm, frf), _error(cm, frf)
+    assert e_nm <= max(3 * e_id, 0.01)                       # acceptance (issue 22)
+    assert e_nm <= 1.5 * MEASURED[name, noise]               # locked
+    # the record: in-band poles became modes, out-of-band poles stayed residual, nothing lost
+    in_band = np.asarray(cm.in_band, bool)
+    assert nm.properness.poles_used.tolist() == np.flatnonzero(in_band).tolist()
+    assert nm.properness.poles_left_out.size == 0
+    assert nm.n == in_band.sum() and nm.std is None
+    if in_band.all():
+        assert nm.residual is None
+    else:
+        r = nm.residual
+        assert r.source.tolist() == np.flatnonzero(~in_band).tolist()
+        assert r.reasons == (OUT_OF_BAND,) * r.m
+        # kept as they are: the identified poles and residues, bit for bit
+        assert np.array_equal(r.poles, cm.poles[r.source])
+        assert np.array_equal(r.residues, cm.residues[r.source])
+        assert r.sensors == cm.sensors and r.actuators == cm.actuators
+
+
+@pytest.mark.parametrize("name,noise", [("plate", 0.0), ("truss", 0.01)])
+def test_the_residual_block_matters(name, noise):
+    """Without its residual dynamics the model loses the out-of-band poles' contribution."""
+    frf, cm, nm = _chain(name, noise)
+    assert nm.residual is not None
+    assert _error(nm.replace(residual=None), frf) > 2 * _error(nm, frf)
+
+
+def test_a_mode_that_cannot_be_made_proper_stays_residual_with_the_reason():
+    """A phase-rotated in-band mode (far from proper: no small real root of 3.52) is kept as
+    a complex mode; the other in-band poles still become normal modes."""
+    frf, cm, _ = _chain("truss", 0.0)
+    R = np.array(cm.residues)
+    R[4] = R[4] * 1j
+    bad = cm.replace(residues=R)
+    with pytest.warns(RuntimeWarning, match=r"pole\(s\) 4 .*Riccati equation \(3.52\)"):
+        nm = sd.normal_modes(bad, std=False)
+    out = np.flatnonzero(~np.asarray(cm.in_band, bool)).tolist()
+    assert nm.properness.poles_used.tolist() == [j for j in range(cm.n) if j != 4 and j not in out]
+    assert nm.residual.source.tolist() == sorted([4] + out)
+    reason = dict(zip(nm.residual.source.tolist(), nm.residual.reasons))
+    assert "Riccati equation (3.52) has no small real root" in reason[4]
+    assert all(reason[j] == OUT_OF_BAND for j in out)
+    H = bad.frf(frf.freq, quantity=frf.quantity).H
+    assert logls(nm.frf(frf.freq, quantity=frf.quantity).H, H) < 0.02     # measured 0.0129
+
+
+def test_roving_hammer_orientation_keeps_the_residual_block():
+    """The transposed test (few sensors, many actuators) is transformed by reciprocity and
+    turned back; its residual block is turned back with it."""
+    frf, cm, nm = _chain("truss", 0.0)
+    cm_t = cm.replace(residues=np.swapaxes(cm.residues, 1, 2), E=np.asarray(cm.E).T,
+                      F=np.asarray(cm.F).T, sensors=cm.actuators, actuators=cm.sensors,
+                      collocated=tuple((a, s) for s, a in cm.collocated))
+    with pytest.warns(RuntimeWarning, match="transposed test"):
+        nm_t = sd.normal_modes(cm_t, std=False)
+    assert (nm_t.ns, nm_t.na) == (cm.na, cm.ns)
+    assert nm_t.residual.sensors == cm.actuators
+    H, Ht = nm.frf(frf.freq).H, nm_t.frf(frf.freq).H
+    assert np.abs(np.swapaxes(Ht, 1, 2) - H).max() < 1e-12 * np.abs(H).max()
+
+
+@pytest.mark.parametrize("quantity", ["displacement", "velocity", "acceleration"])
+def test_statespace_carries_the_residual_block(quantity):
+    frf, cm, nm = _chain("plate", 0.0)
+    f = frf.freq
+    H = nm.frf(f, quantity=quantity).H
+    G = nm.to_statespace(quantity, omega_c=1e3 * 2 * np.pi * f.max(), rigid_body=True)
+    Hs = np.moveaxis(G(2j * np.pi * f), -1, 0)
+    # exact but for the correction filter of the improper terms (2 w / w_c = 2e-3)
+    tol = 1e-9 if quantity == "displacement" else 3e-3
+    assert np.abs(Hs - H).max() <= tol * np.abs(H).max()
+    names = [s for s in G.state_labels if s.startswith("r") or s.startswith("dr")]
+    assert len(names) >= 2 * nm.residual.m
+
+
+def test_residual_mass_is_stable_by_default_and_rigid_on_request():
+    frf, cm, nm = _chain("truss", 0.01)
+    assert nm.F is not None and nm.residual is not None
+    rigid, stable = nm.to_statespace(rigid_body=True), nm.to_statespace()
+    lam_r, lam_s = np.linalg.eigvals(rigid.A), np.linalg.eigvals(stable.A)
+    assert np.sum(np.abs(lam_r) < 1e-9) == 2 * nm.na                 # double integrators (2.24)
+    assert lam_s.real.max() < 0                                       # asymptotically stable
+    assert stable.nstates == rigid.nstates + nm.na                    # 3 states per input
+    wf = 0.1 * 2 * np.pi * cm.band[0]                                 # a decade below the band
+    assert np.sum(np.abs(lam_s + wf) < 1e-3 * wf) == 3 * nm.na      # triple poles at -w_f
+    f = frf.freq
+    H = nm.frf(f).H
+    Hr = np.moveaxis(rigid(2j * np.pi * f), -1, 0)
+    Hs = np.moveaxis(stable(2j * np.pi * f), -1, 0)
+    assert np.abs(Hr - H).max() < 1e-9 * np.abs(H).max()
+    # F (s + 3 w_f)/(s + w_f)^3 against F/s^2: relative error 3 (w_f/w)^2 (1 + 3 w_f/w) of F
+    s = 2j * np.pi * f[:, None, None]
+    x = wf / (2 * np.pi * f[:, None, None])
+    bound = 3 * x**2 * (1 + 3 * x) * np.abs(nm.F[None] / s**2)
+    assert np.all(np.abs(Hs - H) <= bound + 1e-9 * np.abs(H).max())
+
+
+def test_operations_keep_the_residual_block_at_the_tested_io():
+    frf, cm, nm = _chain("plate", 0.0)
+    n = nm.n
+    for m2 in (nm.modified(dOmega=0.01 * nm.Omega), nm.proportional(),
+               nm.with_feedback(nm.phib[:, :1], nm.phib[:, :1].T, kv=1.0, modal=True)):
+        assert m2.residual is nm.residual and m2.n == n
+    # the uncertain model (5.5) holds the normal modes only, and says so
+    with pytest.warns(RuntimeWarning, match="residual dynamics .* not part of the uncertain"):
+        um = nm.replace(F=None).uncertain(dOmega=0.01 * np.abs(nm.Omega))
+    assert um.model.n == n
+    # placed by label: a model on a subset of the sensors gets the residual at those only
+    sub = nm.replace(cphi=nm.cphi[[2, 0]], E=None if nm.E is None else nm.E[[2, 0]],
+                     F=None if nm.F is None else nm.F[[2, 0]], sensors=nm.sensors[2::-2])
+    f = frf.freq
+    assert np.allclose(sub.frf(f).H, nm.frf(f).H[:, [2, 0]], rtol=1e-12, atol=0)
+
+
+def test_round_trips_keep_the_residual_block(tmp_path):
+    frf, cm, nm = _chain("plate", 0.0)
+    path = tmp_path / "nm.npz"
+    sd.save(nm, path)
+    for back in (sd.load(path), pickle.loads(pickle.dumps(nm))):
+        r, b = nm.residual, back.residual
+        assert np.array_equal(b.poles, r.poles) and np.array_equal(b.residues, r.residues)
+        assert b.reasons == r.reasons and np.array_equal(b.source, r.source)
+        assert b.sensors == r.sensors and b.actuators == r.actuators
+        assert not b.residues.flags.writeable
+        assert np.array_equal(back.frf(frf.freq).H, nm.frf(frf.freq).H)
+        assert back.properness.poles_used.tolist() == nm.properness.poles_used.tolist()
+
+
+def test_statistics_cover_the_normal_modes_only_and_can_be_skipped():
+    frf, cm, nm = _chain("plate", 0.01)
+    assert cm.statistics is not None and nm.std is None and nm.residual is not None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        full = sd.normal_modes(cm)
+    n, ns, na = full.n, full.ns, full.na
+    assert {k: v.shape for k, v in full.std.items()} == {
+        "Omega": (n, n), "Gamma": (n, n), "cphi": (ns, n), "phib": (n, na)}
+    assert np.all(np.isfinite(np.diag(full.std["Omega"])))
+    assert np.all(np.diag(full.std["Omega"]) > 0)
+    # the same model otherwise
+    assert np.array_equal(full.Omega, nm.Omega) and np.array_equal(full.cphi, nm.cphi)
+    assert full.residual.source.tolist() == nm.residual.source.tolist()
