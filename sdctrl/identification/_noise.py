@@ -48,6 +48,9 @@ from sdctrl.identification._residues import basis_derivatives, stack
 
 __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
 
+#: lags (lines) of the second differences of the smooth noise field (module notes)
+SMOOTH_LAGS = (1,)
+
 
 def running_median(X: np.ndarray, win: int) -> np.ndarray:
     """Running median over ``win`` lines (axis 0, edges held), per column of ``X`` (nf, k).
@@ -136,8 +139,9 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False) -> np.ndarray
         # noise independent from line to line, far below for a residual smooth in
         # frequency (model error, the tails of modes outside the band), which is no
         # noise; used for out-of-band poles only (module notes)
-        d = _second_difference(r[:nf], r[nf:], lev)
-        field = np.minimum(field, _level(d, shape, tiny, win))
+        d = np.max([_level(_second_difference(r[:nf], r[nf:], lev, k), shape, tiny, win)
+                    for k in SMOOTH_LAGS if 2 * k < nf], axis=0)
+        field = np.minimum(field, d)
     return field
 
 
@@ -148,14 +152,15 @@ def _level(e, shape, tiny, win):
     return np.maximum(add, mult) / np.log(2.0)
 
 
-def _second_difference(re, im, lev):
-    """``|r_(i-1) - 2 r_i + r_(i+1)|^2 / 6`` per line (edges repeated), standardised by the
-    leverage like the residual: for independent noise of a smooth variance its mean is
-    the variance of one line."""
-    d = (re[:-2] - 2 * re[1:-1] + re[2:]) ** 2 + (im[:-2] - 2 * im[1:-1] + im[2:]) ** 2
-    h = np.maximum(1.0 - (lev[:-2] + 4 * lev[1:-1] + lev[2:]) / 6, 0.05)
+def _second_difference(re, im, lev, k=1):
+    """``|r_(i-k) - 2 r_i + r_(i+k)|^2 / 6`` per line (edges repeated), standardised by the
+    leverage like the residual: for noise independent over ``k`` lines and of a smooth
+    variance its mean is the variance of one line."""
+    a, b, c = slice(None, -2 * k), slice(k, -k), slice(2 * k, None)
+    d = (re[a] - 2 * re[b] + re[c]) ** 2 + (im[a] - 2 * im[b] + im[c]) ** 2
+    h = np.maximum(1.0 - (lev[a] + 4 * lev[b] + lev[c]) / 6, 0.05)
     d = d / (6 * h[:, None])
-    return np.concatenate([d[:1], d, d[-1:]])
+    return np.concatenate([np.repeat(d[:1], k, 0), d, np.repeat(d[-1:], k, 0)])
 
 
 def projector_diagonal(G):

@@ -324,6 +324,7 @@ class AutoSelection:
         w2, z2, ev2, info2 = self.fit(w2, z2, sn)
         if not self._accept(w2, z2, ev2, info2, new, sn).size:
             return None
+        self.tried = []                       # the model changed (see _add_missed)
         self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
                          "out-of-band mode " + ("below" if sd < 0 else "above")))
         return w2, z2, sn, ev2, info2
@@ -339,11 +340,14 @@ class AutoSelection:
         sn = np.concatenate([side, np.zeros(len(cand), int)])
         # first the new poles alone (the others fixed), then all of them
         w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
-        for fi, _ in cand:
-            self.tried.append(float(fi))
         ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
+        rejected = [float(c[0]) for j, c in enumerate(cand) if n0 + j not in set(ok)]
         if not ok.size:
+            self.tried += rejected
             return None
+        # the model changed: what was rejected (or pruned) before is retried, so that a
+        # mode closer than the exclusion (1.5 lines) to one found before is still found
+        self.tried = rejected
         keep = np.concatenate([np.arange(n0), ok])
         w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
         for j in range(n0, keep.size):
