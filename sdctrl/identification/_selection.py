@@ -10,7 +10,12 @@ fillers with very large damping or are not statistically significant
 band (held outside by bounds, within a factor 4 of its edges) that absorb modes the
 asymptotic terms ``E``, ``F/s^2`` cannot represent: one per side and pass while they are
 significant, so that the fit reaches the noise whatever lies outside the band (six
-suspension and plate modes below a band, modes just outside both edges).  Both sides
+suspension and plate modes below a band, modes just outside both edges).  Out-of-band
+poles are judged against the noise field that excludes residuals smooth in frequency
+(second differences, :func:`~sdctrl.identification._noise.noise_field`), in-band poles
+against the direct field.  A residual-scan candidate that was rejected is excluded
+(1.5 lines around it) only until the model changes: a close mode hidden while its
+neighbour was not fitted is proposed again.  Both sides
 are tried before the first removal of insignificant poles: the significance test takes
 the residual for noise, and the tail of a mode just outside the band inflates it over
 the whole band (a lightly damped mode at the other end of the
