@@ -48,8 +48,11 @@ from sdctrl.identification._residues import basis_derivatives, stack
 
 __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
 
-#: lags (lines) of the second differences of the smooth noise field (module notes)
-SMOOTH_LAGS = (1,)
+#: lags (lines) of the second differences of the smooth noise field, the largest level
+#: kept (module notes): noise correlated over a few lines by the windows of the records
+#: (an exponential window, a force window) still counts as noise at the longer lags,
+#: while the tail of a mode outside the band, smooth over tens of lines, does not
+SMOOTH_LAGS = (1, 2, 4)
 
 
 def running_median(X: np.ndarray, win: int) -> np.ndarray:
