@@ -16,7 +16,7 @@ cost change exceeds what pure noise would give:
   ``|r_(i-k) - 2 r_i + r_(i+k)|^2 / 6`` at lags ``k`` of :data:`SMOOTH_LAGS` (1, 2, 4
   lines; the largest level kept), the lower of the two fields kept.  For noise
   independent from line to line both agree, while a residual smooth in frequency (the
-  tails of modes outside the band that the asymptotic terms ``E``, ``F/s^2`` of 3.3 do
+  tails of modes outside the band that the asymptotic terms ``E``, ``F/s^2`` of (3.7) do
   not carry) is no noise and would otherwise raise the threshold that the very poles
   which remove it must pass.  In-band poles keep the direct field: an FRF estimated from
   windowed time records (``impact_frf``, ``estimate_frf``, or the same data without
