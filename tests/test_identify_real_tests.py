@@ -105,16 +105,17 @@ def test_hammer_survey_fit_is_orientation_free(survey):
     one fit (common poles, full residue matrices): ``identify`` needs no transposition."""
     frf, _lam, _R, _Ha, cm = survey
     ct = sd.identify(frf.transpose(), band=BAND, progress=False)
-    # 15 in band; a pole below and one above the band (issue 22) carry the tails of the
-    # 9 and 150 Hz modes
+    # 15 in band; two heavily damped poles above it (issue 22) carry the 150 Hz mode's
+    # tail, their parameters not determined by the data (statistics NaN)
     assert ct.n == cm.n and cm.in_band.sum() == 15
     np.testing.assert_array_equal(ct.in_band, cm.in_band)
     inb = cm.in_band
     np.testing.assert_allclose(ct.poles[inb], cm.poles[inb], rtol=1e-9)   # measured 1e-16
-    np.testing.assert_allclose(ct.poles, cm.poles, rtol=1e-9)             # measured 4e-11
+    np.testing.assert_allclose(ct.poles, cm.poles, rtol=1e-8)             # measured 2.2e-9
     np.testing.assert_allclose(ct.residues[inb], np.swapaxes(cm.residues[inb], 1, 2),
                                rtol=1e-6, atol=1e-9 * np.abs(cm.residues).max())
-    np.testing.assert_allclose(ct.residues, np.swapaxes(cm.residues, 1, 2),   # 1.3e-10
-                               rtol=0, atol=1e-8 * np.abs(cm.residues).max())
+    np.testing.assert_allclose(ct.residues, np.swapaxes(cm.residues, 1, 2),   # 3.4e-5
+                               rtol=0, atol=2e-4 * np.abs(cm.residues).max())
+    assert np.all(np.isnan(cm.frequency_std[~inb]))
     assert np.all(np.isfinite(cm.frequency_std[inb]) & (cm.frequency_std[inb] > 0))
     assert ct.cost == pytest.approx(cm.cost, rel=1e-9)

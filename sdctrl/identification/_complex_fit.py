@@ -97,10 +97,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         near the band edges stays above the noise.  The rule is the significance test
         of 3.2.1 with the noise estimated from the data: for an out-of-band pole, the
         lower of the residual's running-median level and the level of its second
-        differences along the lines at lags of 1, 2 and 4 lines (equal for noise
-        independent over a few lines, far below for the smooth tail of a mode, which is
-        no noise); one pole per side may sit at the far bound (a group of modes
-        beyond it acts as one pole there); in-band poles meet the
+        differences along the lines (equal for noise independent between lines, far
+        below for the smooth tail of a mode, which is no noise); in-band poles meet the
         running-median level alone (windowed records have noise correlated over lines,
         which second differences would take for signal).  No threshold depends on the
         structure.  Close modes: a frequency rejected by the residual scan is retried

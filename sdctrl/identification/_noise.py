@@ -13,18 +13,17 @@ cost change exceeds what pure noise would give:
   given, else the fitted ``|H|^2`` (multiplicative noise);
 * out-of-band poles (issue 22) meet a second field: the same two levels estimated from
   the second differences of the residual along the lines,
-  ``|r_(i-k) - 2 r_i + r_(i+k)|^2 / 6`` at lags ``k`` of :data:`SMOOTH_LAGS` (1, 2, 4
-  lines; the largest level kept), the lower of the two fields kept.  For noise
+  ``|r_(i-1) - 2 r_i + r_(i+1)|^2 / 6``, the lower of the two fields kept.  For noise
   independent from line to line both agree, while a residual smooth in frequency (the
   tails of modes outside the band that the asymptotic terms ``E``, ``F/s^2`` of (3.7) do
   not carry) is no noise and would otherwise raise the threshold that the very poles
   which remove it must pass.  In-band poles keep the direct field: an FRF estimated from
   windowed time records (``impact_frf``, ``estimate_frf``, or the same data without
   coherence) has noise correlated over several lines by the windows (measured on a
-  simulated hammer test: correlation 0.8 between neighbouring lines, lag-1 second
-  differences 30 times below the noise, lag-4 ones at it), which an in-band pole of
-  small damping can fit; the longer lags keep such noise for noise when it is judged
-  against out-of-band poles (lag 1 alone put seven spurious poles on that test);
+  simulated hammer test: correlation 0.8 between neighbouring lines, second differences
+  30 times below the noise), which an in-band pole of small damping can fit, while an
+  out-of-band pole, smooth over the band on the scale of its distance to the edge,
+  cannot;
 * it is weighted by the diagonal of the projector on the pole's columns (orthogonalised
   against the other poles): a pole on a peak meets the noise of the peak;
 * the cost change of a noise-fitting pole, ``sum_c s_c chi2(npp)`` over the data
@@ -49,11 +48,8 @@ from sdctrl.identification._residues import basis_derivatives, stack
 
 __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
 
-#: lags (lines) of the second differences of the smooth noise field, the largest level
-#: kept (module notes): noise correlated over a few lines by the windows of the records
-#: (an exponential window, a force window) still counts as noise at the longer lags,
-#: while the tail of a mode outside the band, smooth over tens of lines, does not
-SMOOTH_LAGS = (1, 2, 4)
+#: lags (lines) of the second differences of the smooth noise field (module notes)
+SMOOTH_LAGS = (1,)
 
 
 def running_median(X: np.ndarray, win: int) -> np.ndarray:

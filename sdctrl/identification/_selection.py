@@ -212,28 +212,19 @@ class AutoSelection:
         """{index: reason} of poles at a bound, fitting noise or filling in.
 
         An out-of-band pole is judged by its significance alone unless it is pushed
-        to the band edge (it then stands for an in-band mode) or is a second pole at
-        the far frequency bound of its side: at a damping bound, or alone at the far
-        bound, it still carries the tail of modes beyond the band, which no line
-        resolves (a group of suspension modes below a band acts as one pole there).
+        to a frequency bound: at a damping bound it still carries the tail of a mode
+        beyond the band, which no line resolves.
         """
         f = w / (2 * np.pi)
         reasons = {}
         edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
                               (self.fband[1] - f < 0.5 * self.df))
         at_bound = info.get("at_bound", np.zeros(w.size, bool)) & (side == 0)
-        # out of band: at the edge it stands for an in-band mode; at the far bound (a
-        # factor OUT_FACTOR from the edge) it carries, when significant, the tails of
-        # the modes beyond (a group of suspension modes) that E, F/s^2 do not: one per
-        # side is kept there, a second one would stand for the same
+        # out of band: at the edge it stands for an in-band mode, at the far bound (a
+        # factor OUT_FACTOR from the edge) for what the asymptotic terms E, F/s^2 carry
         lo, hi = self.fband[0] * (1 - 1e-6), self.fband[1] * (1 + 1e-6)
-        far = ((side < 0) & (f < lo / OUT_FACTOR * (1 + 2e-6))) | \
-              ((side > 0) & (f > hi * OUT_FACTOR * (1 - 2e-6)))
-        again = np.zeros(w.size, bool)
-        for sd in (-1, 1):
-            idx = np.flatnonzero(far & (side == sd))
-            again[idx[1:]] = True
-        at_edge = ((side < 0) & (f > lo)) | ((side > 0) & (f < hi)) | again
+        at_edge = ((side < 0) & ((f > lo) | (f < lo / OUT_FACTOR * (1 + 2e-6)))) | \
+                  ((side > 0) & ((f < hi) | (f > hi * OUT_FACTOR * (1 - 2e-6))))
         for j in np.flatnonzero(at_bound | edge | at_edge):
             reasons[j] = "did not converge (pushed to a bound)"
         for j in self._unresolved(w, z, side, ev, reasons):
