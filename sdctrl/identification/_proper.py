@@ -165,12 +165,16 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         the least-squares sense.
     modes : array_like of int or bool, optional
         Modes of ``cm`` to transform (indices, or a boolean mask such as ``cm.in_band``).
-        The default -- the one to use -- is every pole, in-band or not: properness
-        enforced on the full set fits the data best (leaving the out-of-band poles out
-        loses their contribution near the band edges, several percent of the FRF), and
+        The recommendation, the same in the README, the CLI and the demo: the default,
+        every pole in-band or not, for a model that predicts (responses near the band
+        edges, :func:`sdctrl.hybrid`, control design): properness enforced on the full
+        set fits the data best (leaving the out-of-band poles out loses their
+        contribution near the band edges, several percent of the FRF), and
         :func:`sdctrl.hybrid` keeps the out-of-band modes that pair with an FE mode and
-        absorbs the others into its residual terms.  Only if the transformation fails
-        with them are the out-of-band poles left out, with a warning.
+        absorbs the others into its residual terms; ``modes=cm.in_band`` for the modes of
+        the band alone (a table of modes, a comparison with FE or true modes of the
+        band).  Only if the transformation fails with them are the out-of-band poles
+        left out by the default, with a warning.
     tol : float
         Relative tolerance of the Newton iteration on the Riccati residual (3.52).
     maxiter : int

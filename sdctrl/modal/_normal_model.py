@@ -329,10 +329,12 @@ class NormalModeModel(FrozenState):
         control.StateSpace
             Outputs named after the sensors, inputs after the actuators followed by ``_u``.
 
-        Notes
-        -----
-        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
-        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
+        Warnings
+        --------
+        ``control.feedback(G, K)`` drops the signal names (its outputs become ``y[0]``,
+        ``y[1]``, ... and its inputs ``u[0]``, ...) and ``control.interconnect`` numbers
+        them unless told otherwise: close loops with :func:`sdctrl.feedback`, which keeps
+        the plant's names.
         """
         return to_statespace(self, quantity, omega_c)
 
