@@ -105,8 +105,8 @@ class ComplexModeModel(FrozenState):
             raise ValueError("poles must lie in the upper half-plane (Im > 0), one per mode")
         if np.any(lam.real >= 0):
             raise ValueError("poles must be stable (Re < 0)")
-        E = np.zeros((ns, na)) if self.E is None else as_array(self.E, "E", shape=(ns, na))
-        F = np.zeros((ns, na)) if self.F is None else as_array(self.F, "F", shape=(ns, na))
+        E, F = (np.zeros((ns, na)) if X is None else as_array(X, f"{k} (ns x na of residues)",
+                shape=(ns, na)) for k, X in (("E", self.E), ("F", self.F)))
         ib = _mask(self.in_band, n)
         sensors = check_labels(self.sensors, ns, "sensors", "s")
         actuators = check_labels(self.actuators, na, "actuators", "a")

@@ -125,8 +125,10 @@ class NormalModeModel(FrozenState):
             scale = max(np.abs(X).max(), 1e-300)
             if np.abs(X - X.T).max() > 1e-8 * scale:
                 raise ValueError(f"{name} must be symmetric")
-        E = None if self.E is None else as_array(self.E, "E", shape=(ns, na))
-        F = None if self.F is None else as_array(self.F, "F", shape=(ns, na))
+        E = None if self.E is None else as_array(self.E, "E (ns x na of cphi, phib)",
+                                                 shape=(ns, na))
+        F = None if self.F is None else as_array(self.F, "F (ns x na of cphi, phib)",
+                                                 shape=(ns, na))
         shapes = None
         if self.shapes is not None:
             shapes = as_array(self.shapes, "shapes", ndim=2)
