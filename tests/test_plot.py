@@ -403,7 +403,7 @@ def test_complex_residue_labels_never_overlap():
     written = {t.get_text() for t in texts}
     assert {"N0.y", "N1.y"} <= written               # the two large ones
     assert 2 < len(written) < r.size                 # the pile is thinned, not all dropped
-    # each label sits next to its own point (within 25 points)
+    # each label sits next to its own point (within 25 points) and covers no other point
     pts = {lab: z for lab, z in zip(labels, r)}
     for t in texts:
         z = pts[t.get_text()]
@@ -411,6 +411,9 @@ def test_complex_residue_labels_never_overlap():
         b = t.get_window_extent(rend)
         gap = np.hypot(max(b.x0 - x, 0, x - b.x1), max(b.y0 - y, 0, y - b.y1))
         assert gap < 25 * fig.dpi / 72
+        for other in written - {t.get_text()}:
+            w = pts[other]
+            assert not b.contains(*ax.transData.transform((w.real, w.imag))), (t, other)
 
 
 def test_mode_shapes_panel_names_give_the_report_numbering():

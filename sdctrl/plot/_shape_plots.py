@@ -198,10 +198,16 @@ _LABEL_SPOTS = ((3, 3, "left"), (3, -9, "left"), (-3, 3, "right"), (-3, -9, "rig
 
 
 def _place_labels(fig, ax, labels, points) -> int:
-    """Write each label next to its point where it overlaps no other label (largest points
-    first; a label with no free spot is left out).  Returns the number written."""
+    """Write each label next to its point where it overlaps no other label and no other
+    labelled point's marker (largest points first; a label with no free spot is left out).
+    Returns the number written."""
+    from matplotlib.transforms import Bbox
+
     fig.canvas.draw()                               # final limits (equal aspect) and layout
     renderer = fig.canvas.get_renderer()
+    xy = ax.transData.transform(np.column_stack([points.real, points.imag]))
+    half = 3.5 * fig.dpi / 72                       # half the marker size (ms=7 points)
+    markers = [Bbox([[x - half, y - half], [x + half, y + half]]) for x, y in xy]
     taken = []
     for k in np.argsort(-np.abs(points), kind="stable"):
         z = points[k]
@@ -210,7 +216,8 @@ def _place_labels(fig, ax, labels, points) -> int:
                             textcoords="offset points", ha=ha, gid="sensor label")
             t.set_in_layout(False)                  # labels never move the axes
             box = t.get_window_extent(renderer)
-            if not any(box.overlaps(b) for b in taken):
+            if not any(box.overlaps(b) for b in taken) and not any(
+                    box.overlaps(m) for i, m in enumerate(markers) if i != k):
                 taken.append(box)
                 break
             t.remove()
