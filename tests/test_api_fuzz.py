@@ -813,7 +813,17 @@ def _run(entry, deadline, excluded, max_examples, **kw):
     @given(data=st.data())
     def run(data):
         args, mutated = draw_case(entry, data.draw, excluded)
-        OUTCOMES[(entry.name, expect(entry, args, mutated, deadline))] += 1
+        if not COUNT_ONLY:
+            OUTCOMES[(entry.name, expect(entry, args, mutated, deadline))] += 1
+            return
+        try:                                 # the full run: count failures by kind, go on
+            OUTCOMES[(entry.name, expect(entry, args, mutated, deadline))] += 1
+        except AssertionError as exc:
+            msg = str(exc).split("\n")[0]
+            kind = next((k for k, words in FAILURE_KINDS if any(w in msg for w in words)),
+                        "other")
+            OUTCOMES[(entry.name, kind)] += 1
+            FAILURES.setdefault(kind, []).append(msg)
 
     run()
 
@@ -839,10 +849,21 @@ def run_only(entry, argname, cls, deadline):
          database=None, phases=[Phase.generate])
 
 
+#: ``SDCTRL_FUZZ_EXAMPLES``: examples per unit weight (default: the hypothesis profile's);
+#: ``SDCTRL_FUZZ_COUNT=1``: count failures by kind instead of failing (the full run of
+#: ``benchmarks/fuzz_api.py``, which reports the counts)
+EXAMPLES = int(os.environ.get("SDCTRL_FUZZ_EXAMPLES", "0")) or settings.default.max_examples
+COUNT_ONLY = os.environ.get("SDCTRL_FUZZ_COUNT") == "1"
+FAILURE_KINDS = (("hang", ("Hang escaped",)), ("crash", ("escaped",)),
+                 ("unnamed", ("names none of",)),
+                 ("wrong result", ("ill-formed", "NaN/inf", "accepted", "modified")),
+                 ("valid refused", ("refused",)))
+FAILURES: dict = {}
+
+
 @pytest.mark.parametrize("entry", ENTRIES, ids=lambda e: e.name)
 def test_entry_point(entry, deadline):
-    _run(entry, deadline, _excluded(entry.name),
-         entry.weight * settings.default.max_examples)
+    _run(entry, deadline, _excluded(entry.name), entry.weight * EXAMPLES)
 
 
 def _known_failure(key, deadline):
@@ -914,3 +935,7 @@ def _report():
         print("\nfuzzed calls:", sum(OUTCOMES.values()))
         for (name, outcome), n in sorted(OUTCOMES.items()):
             print(f"  {name:42s} {outcome:8s} {n}")
+        for kind, msgs in sorted(FAILURES.items()):
+            print(f"failures: {kind}: {len(msgs)}")
+            for m in sorted(set(msgs))[:20]:
+                print(f"    {m[:300]}")
