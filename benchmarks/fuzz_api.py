@@ -2,11 +2,11 @@
 
 Plain script::
 
-    python benchmarks/fuzz_api.py [--examples 230] [--seed N]
+    python benchmarks/fuzz_api.py [--examples 175] [--seed N]
 
 Runs ``tests/test_api_fuzz.py`` (every public entry point, file reader and round trip: one
 row each) with ``--examples`` drawn cases per unit of a row's weight (the suite draws 100;
-230 gives about 13,000 calls) in *count* mode: a case that breaks the property is counted
+175 gives about 13,000 calls) in *count* mode: a case that breaks the property is counted
 by kind instead of stopping its row, so the run reports how many calls
 
 - returned a finite, well-formed result (``ok``) or were refused with a ``ValueError``/
@@ -36,7 +36,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--examples", type=int, default=230,
+    ap.add_argument("--examples", type=int, default=175,
                     help="cases per unit of row weight (the test suite uses 100)")
     ap.add_argument("--seed", type=int, default=None, help="hypothesis seed (random draws)")
     a = ap.parse_args(argv)

@@ -299,8 +299,9 @@ class NormalModes:
             "kept) and `cphi`, `phib`. The result is a control-ready model: "
             f"`nm.to_statespace('acceleration')` has {2 * nm.n} states, outputs named after the "
             "sensors and inputs after the shakers plus `_u`. `modes=cm.in_band` keeps the "
-            "modes of the band alone, to compare them with the true modes of the band; the "
-            "model that predicts (the hybrid section) uses the default, every pole.")
+            "modes of the band alone, for this table and its comparisons; a model that "
+            "predicts (a hybrid, control near the band edges) uses the default, every pole: "
+            "`sd.normal_modes(cm)`.")
         s.key_numbers(self.checks())
         if self.test is not None:
             s.paragraph(
