@@ -24,8 +24,10 @@ Measured (issue 25, 2-core machine shared with five other sessions, load ~12): 1
 of 85 entry points in 717 s -- 4,171 ok, 8,853 refused naming an argument, 0 crash, 0 hang,
 0 wrong result, 0 unnamed, 0 valid refused.  Before the fixes of issue 25 the same rows found
 an ``OverflowError`` escaping ``diagnose`` (huge frequencies), UFF round trips losing units
-``''``/``'NONE'`` and a repeated collocated pair, and 13 refusals naming none of the
-arguments (E/F shapes, element-group selectors, ``mass``, testbed factors, ``table(k)``).
+``''``/``'NONE'`` and a repeated collocated pair, a dozen classes of values refused with
+a message naming none of the arguments (E/F shapes, element-group selectors, ``mass``,
+testbed factors, ``table(k)``) and two accepted that must be refused (a text testbed factor,
+``table(0)``).
 """
 
 from __future__ import annotations
