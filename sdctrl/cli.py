@@ -45,7 +45,9 @@ Identify the modes of your own test: no initial poles are needed. Prints a table
 the modes and writes OUT/report.html (stabilisation diagram, test vs identified model,
 modes table, complex residues; the normal modes and their full damping matrix when the
 file declares collocated sensor/actuator pairs), report.md, summary.json and the models
-identified.npz and normal_modes.npz (read back with sdctrl.load).
+identified.npz and normal_modes.npz (read back with sdctrl.load). normal_modes.npz holds
+the modes of the band (sd.normal_modes(cm, modes=cm.in_band), for the table); to predict
+or build a hybrid, use sd.normal_modes(cm) on identified.npz (every pole).
 
 DATA is a UFF file of FRFs (dataset 58, .uff or .unv) or an FRF saved with sdctrl.save
 (.npz)."""

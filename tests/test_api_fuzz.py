@@ -21,6 +21,7 @@ Run with ``-s`` to print the outcome counts.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import os
 import pathlib
 import tempfile
@@ -37,6 +38,9 @@ from fuzzing import (
     Arg,
     Cls,
     Entry,
+    Kind,
+    _fixed,
+    _pick,
     array,
     band_kind,
     choice_kind,
@@ -311,6 +315,53 @@ def is_impact_frf(res, args=None):
     is_frf(res, args)
     assert res.H.shape[2] == 1 and res.coherence is not None
     assert (res.exponential_tau is None) == (args is None or args.get("exponential") is None)
+
+
+#: issue 25 rows: a hybrid model, a placement study, units strings for the round trips
+HY = sd.hybrid(FE, NM_FE, B_FE.T.copy())
+STUDY = placement.placement_study(NM_FE, FE, (1.0, 40.0), kv=5.0,
+                                  candidates=[("N1", "N2"), ("N3", "N4")])
+UNITS = Kind({"none": Cls(_fixed(None), OK), "empty": Cls(_fixed("")),
+              "none_word": Cls(_pick("NONE", "none")), "long": Cls(_fixed("m/s^2 per N, " * 4)),
+              "newline": Cls(_fixed("m/s^2\n/N")), "unicode": Cls(_fixed("\u00b5m/N")),
+              "blank": Cls(_fixed(" m/N ")), "number": Cls(_fixed(3), REFUSE),
+              "bytes": Cls(_fixed(b"m/N"), REFUSE)})
+
+
+def _uff_round_trip(a):
+    """An FRF written to UFF and read back: ``(frf, back)``."""
+    binary = a.pop("binary")
+    frf = sd.FRF(FREQ, H, **a)
+    path = TMP / "round.uff"
+    sd.write_uff(frf, path, binary=binary, overwrite=True)
+    return frf, sd.read_uff(path)
+
+
+def _npz_round_trip(a):
+    """A model and its FRF (with units) saved with ``sd.save`` and loaded back."""
+    units = a.pop("units")
+    nm = _nm(a)
+    frf = sd.FRF(FREQ, nm.frf(FREQ).H, sensors=nm.sensors, actuators=nm.actuators, units=units)
+    return [(obj, sd.load(sd.save(obj, TMP / f"round{k}"))) for k, obj in enumerate((nm, frf))]
+
+
+def same_round_trip(res, args=None):
+    """What was written is what is read: labels, units, quantity, pairs, numbers."""
+    for obj, back in (res if isinstance(res, list) else [res]):
+        _same_object(obj, back)
+
+
+def _same_object(obj, back):
+    assert type(back) is type(obj)
+    names = ("freq", "H", "coherence", "quantity", "units", "collocated") if isinstance(
+        obj, sd.FRF) else [f.name for f in dataclasses.fields(obj) if f.name != "info"]
+    for name in ("sensors", "actuators", *names):
+        a, b = getattr(obj, name), getattr(back, name)
+        if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+            assert a is not None and b is not None, name
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=0, err_msg=name)
+        else:
+            assert a == b, f"{name}: wrote {a!r}, read {b!r}"
 
 
 ENTRIES = [
@@ -670,6 +721,72 @@ ENTRIES = [
            "band": Arg(band_kind().but(none=OK, outside=ANY, huge=ANY, tiny=ANY), (),
                        (5.0, 40.0))},
           close_figures, weight=0.2),
+    # --- issue 25: the rest of the public surface, and round trips through the files ------
+    Entry("write_uff+read_uff", _uff_round_trip,
+          lambda: {"quantity": "velocity", "sensors": LABELS, "actuators": LABELS,
+                   "collocated": [(0, 0), (1, 1)], "coherence": np.full(H.shape, 0.9),
+                   "units": "m/s/N", "binary": True},
+          {"quantity": QTY, "sensors": Arg(LAB, ("labels", "frf")),
+           "actuators": Arg(LAB, ("labels", "frf")), "collocated": COL,
+           "coherence": Arg(array(optional=True).but(negative=REFUSE, huge=REFUSE, int=ANY)),
+           "units": Arg(UNITS, ("frf.units",)), "binary": flag_kind()},
+          same_round_trip, errors=FILE_ERRORS),
+    Entry("save+load", _npz_round_trip,
+          lambda: {**nm_args(), "units": "m/N"}, {**NM_KINDS, "units": UNITS},
+          same_round_trip, errors=FILE_ERRORS),
+    Entry("FRF.transpose", lambda a: _frf(a, ("freq", "H", "sensors", "actuators",
+                                               "collocated")).transpose(),
+          lambda: {"freq": FREQ.copy(), "H": H[:, :, :1].copy(), "sensors": LABELS,
+                   "actuators": LABELS[:1], "collocated": [(0, 0)]},
+          {"freq": FREQ_K, "H": CPLX, "sensors": LAB, "collocated": COL}, is_frf),
+    Entry("NormalModeModel.proportional", lambda a: _nm(a).proportional(), nm_args, NM_KINDS,
+          is_nm),
+    Entry("NormalModeModel.replace", lambda a: NM.replace(**a),
+          lambda: {"Gamma": np.diag(0.05 * W), "E": None, "sensors": ("s1", "s2")},
+          {"Gamma": REAL, "E": Arg(OPT_REAL, (), np.full((2, 2), 1e-5)), "sensors": LAB}, is_nm),
+    Entry("ComplexModeModel.replace", lambda a: CM.replace(**a),
+          lambda: {"residues": cm_args()["residues"], "in_band": np.array([True, False])},
+          {"residues": CPLX, "in_band": mask_kind()}, is_cm),
+    Entry("FEModel.rigid_modes", lambda a: sd.FEModel(**a).rigid_modes(), fe_args,
+          {"M": REAL.but(negative=REFUSE, zero=REFUSE), "K": REAL}),
+    Entry("FEModel.members", lambda a: TB.members(**a),
+          lambda: {"kind": None, "section": "post_AB", "material": None},
+          {"kind": obj_kind(("unknown", "nope", REFUSE), optional=True),
+           "section": obj_kind(("unknown", "nope", REFUSE), ("two", ["post_AB", "post_C"],
+                                                             OK), optional=True).but(list=REFUSE),
+           "material": obj_kind(("unknown", "nope", REFUSE), optional=True)}),
+    Entry("FEModel.member_matrices", lambda a: TB.member_matrices(**a),
+          lambda: {"elements": [("N29", "N30")], "section": None},
+          {"elements": obj_kind(("unknown", [("N29", "N999")], REFUSE),
+                                ("empty", [], REFUSE), optional=True).but(list=REFUSE),
+           "section": obj_kind(("unknown", "nope", REFUSE), optional=True)}, weight=0.3),
+    Entry("FEModel.stiffness_parameter", lambda a: TB.stiffness_parameter(**a),
+          lambda: {"name": "links", "section": ["post_AB", "post_C"], "bounds": (-0.5, 2.0)},
+          {"name": label_kind(), "section": obj_kind(("unknown", ["nope"], REFUSE),
+                                                      optional=True).but(list=REFUSE),
+           "bounds": band_kind().but(negative=ANY, outside=REFUSE, huge=REFUSE, tiny=ANY,
+                                     inf_high=ANY)}, nan_ok=True, weight=0.3),
+    Entry("FEModel.mass_parameter", lambda a: TB.mass_parameter(**a),
+          lambda: {"name": "plates", "nodes": ["N31", "N32"], "mass": None},
+          {"name": label_kind(), "nodes": obj_kind(("unknown", ["N999"], REFUSE),
+                                                    ("empty", [], REFUSE)).but(list=REFUSE),
+           "mass": number(optional=True)}, nan_ok=True, weight=0.3),
+    Entry("UncertainModel.lft", lambda a: NM.uncertain(**a).lft(),
+          lambda: {"dGamma": np.diag([0.1, 0.1]), "dOmega": None},
+          {"dGamma": OPT_REAL.but(negative=REFUSE), "dOmega": Arg(OPT_REAL.but(
+              negative=REFUSE), (), np.diag([10.0, 10.0]))}),
+    Entry("UncertainModel.compact_lft", lambda a: NM.uncertain(**a).compact_lft(),
+          lambda: {"dGamma": np.diag([0.1, 0.1]), "dOmega": None},
+          {"dGamma": OPT_REAL.but(negative=REFUSE), "dOmega": Arg(OPT_REAL.but(
+              negative=REFUSE), (), np.diag([10.0, 10.0]))}),
+    Entry("HybridModel.with_io", lambda a: HY.with_io(**a),
+          lambda: {"b": B_FE.copy(), "c": B_FE.T.copy()},
+          {"b": Arg(OPT_REAL, (), B_FE), "c": Arg(OPT_REAL.but(ndim_down=ANY), (), B_FE.T)},
+          is_nm),
+    Entry("testbed", _call(sd.testbed), lambda: {"link_stiffness": 1.0, "plate_mass": 1.0},
+          {"link_stiffness": number(), "plate_mass": number()}, weight=0.1, seconds=60),
+    Entry("PlacementStudy.table", lambda a: STUDY.table(**a), lambda: {"k": 2},
+          {"k": integer(1)}),
 ]
 
 
@@ -696,7 +813,17 @@ def _run(entry, deadline, excluded, max_examples, **kw):
     @given(data=st.data())
     def run(data):
         args, mutated = draw_case(entry, data.draw, excluded)
-        OUTCOMES[(entry.name, expect(entry, args, mutated, deadline))] += 1
+        if not COUNT_ONLY:
+            OUTCOMES[(entry.name, expect(entry, args, mutated, deadline))] += 1
+            return
+        try:                                 # the full run: count failures by kind, go on
+            OUTCOMES[(entry.name, expect(entry, args, mutated, deadline))] += 1
+        except AssertionError as exc:
+            msg = str(exc).split("\n")[0]
+            kind = next((k for k, words in FAILURE_KINDS if any(w in msg for w in words)),
+                        "other")
+            OUTCOMES[(entry.name, kind)] += 1
+            FAILURES.setdefault(kind, []).append(msg)
 
     run()
 
@@ -722,10 +849,21 @@ def run_only(entry, argname, cls, deadline):
          database=None, phases=[Phase.generate])
 
 
+#: ``SDCTRL_FUZZ_EXAMPLES``: examples per unit weight (default: the hypothesis profile's);
+#: ``SDCTRL_FUZZ_COUNT=1``: count failures by kind instead of failing (the full run of
+#: ``benchmarks/fuzz_api.py``, which reports the counts)
+EXAMPLES = int(os.environ.get("SDCTRL_FUZZ_EXAMPLES", "0")) or settings.default.max_examples
+COUNT_ONLY = os.environ.get("SDCTRL_FUZZ_COUNT") == "1"
+FAILURE_KINDS = (("hang", ("Hang escaped",)), ("crash", ("escaped",)),
+                 ("unnamed", ("names none of",)),
+                 ("wrong result", ("ill-formed", "NaN/inf", "accepted", "modified")),
+                 ("valid refused", ("refused",)))
+FAILURES: dict = {}
+
+
 @pytest.mark.parametrize("entry", ENTRIES, ids=lambda e: e.name)
 def test_entry_point(entry, deadline):
-    _run(entry, deadline, _excluded(entry.name),
-         entry.weight * settings.default.max_examples)
+    _run(entry, deadline, _excluded(entry.name), entry.weight * EXAMPLES)
 
 
 def _known_failure(key, deadline):
@@ -797,3 +935,7 @@ def _report():
         print("\nfuzzed calls:", sum(OUTCOMES.values()))
         for (name, outcome), n in sorted(OUTCOMES.items()):
             print(f"  {name:42s} {outcome:8s} {n}")
+        for kind, msgs in sorted(FAILURES.items()):
+            print(f"failures: {kind}: {len(msgs)}")
+            for m in sorted(set(msgs))[:20]:
+                print(f"    {m[:300]}")

@@ -289,3 +289,115 @@ def test_diagnose_command_on_the_demo_outputs(demo, tmp_path):
     m = re.search(r'<figure id="fig-diagnosis"><img alt="diagnosis" src="data:image/png;base64,'
                   r'([A-Za-z0-9+/=]+)"', page)
     assert m and len(m.group(1)) > 20_000
+
+
+# --- issue 25: the report never contradicts itself ------------------------------------------
+def _md(demo):
+    return (demo["out"] / "report.md").read_text(encoding="utf-8")
+
+
+def _md_section(md, title_start):
+    parts = re.split(r"^## ", md, flags=re.M)
+    hit = [p for p in parts if p.startswith(title_start)]
+    assert len(hit) == 1, title_start
+    return hit[0]
+
+
+def test_report_gives_one_psd_verdict_per_model(demo):
+    """Each normal-mode model shown has one damping verdict (3.45), named by its size; a
+    warning that a damping matrix is not positive semi-definite sits only in a section whose
+    model's verdict is "no"; the hybrid's second model is introduced where it appears."""
+    md = _md(demo)
+    rows = re.findall(r"\| damping matrix of the (\d+)-mode model: positive semi-definite "
+                      r"\(3\.45\) \| (yes|no) \|", md)
+    assert rows, "no damping verdict in the report"
+    verdicts = {}
+    for n, v in rows:
+        verdicts.setdefault(int(n), set()).add(v)
+    assert all(len(v) == 1 for v in verdicts.values()), verdicts
+    assert "damping matrix positive semi-definite" not in md      # no verdict without a model
+    nm = sd.load(demo["out"] / "normal_modes.npz")
+    assert verdicts[nm.n] == {"yes" if nm.properness.positive_definite["damping"] else "no"}
+    for part in re.split(r"^## ", md, flags=re.M):
+        if "damping matrix is not positive semi-definite" in part:
+            n = re.findall(r"damping matrix of the (\d+)-mode model: positive semi-definite "
+                           r"\(3\.45\) \| no \|", part)
+            assert n, part[:200]
+    hy = _md_section(md, "Hybrid model")
+    line = re.search(r"^\[5/8\] hybrid model: (.*)$", demo["proc"].stdout, re.M).group(1)
+    total, inside, outside, fe = map(int, re.match(
+        r"(\d+) modes: (\d+) measured in the band \+ (\d+) fitted just outside it, (\d+) from "
+        r"the FE model", line).groups())
+    assert total == inside + outside + fe == sd.load(demo["out"] / "hybrid.npz").n
+    assert inside == nm.n == 12
+    if outside:                         # the second model is said where it appears
+        assert f"second normal-mode model, of {inside + outside} modes" in hy
+        assert f"damping matrix of the {inside + outside}-mode model" in hy
+
+
+def test_report_numbers_modes_one_way(demo):
+    """The close pair is "modes 3 and 4" in the normal-modes section and in the hybrid
+    figure's caption, at the frequencies of the saved normal-mode model."""
+    md = _md(demo)
+    nm = sd.load(demo["out"] / "normal_modes.npz")
+    sec = _md_section(md, "Normal modes")
+    i, j, fi, fj = re.search(r"The closest pair, modes (\d+) and (\d+) of the band \(undamped "
+                             r"natural frequencies ([\d.]+) and ([\d.]+) Hz", sec).groups()
+    i, j = int(i), int(j)
+    assert (i, j) == (3, 4)
+    assert float(fi) == pytest.approx(nm.frequency[i - 1], abs=0.006)
+    assert float(fj) == pytest.approx(nm.frequency[j - 1], abs=0.006)
+    hy = _md_section(md, "Hybrid model")
+    assert f"modes {i} and {j} of the normal-modes section" in hy
+    test = _md_section(md, "The structure")
+    assert re.search(rf"Modes 1, {i} and {j} of the band, numbered as in the table", test)
+
+
+def test_report_damping_in_percent_and_warnings_in_full(demo):
+    md = _md(demo)
+    for line in md.splitlines():
+        if line.startswith("|") and re.search(r"damping ratio|zeta", line):
+            assert "%" in line, line
+    # every warning a step raised appears whole: in the report and on the terminal
+    flat_out = " ".join(demo["proc"].stdout.split())
+    flat_md = " ".join(md.split())
+    n = 0
+    for step in demo["steps"].values():
+        for w in step["warnings"]:
+            n += 1
+            assert " ".join(w.split()) in flat_md
+            assert "warning: " + " ".join(w.split()) in flat_out
+    assert n >= 1                        # the demo does raise one (the 13-mode model)
+    assert not re.search(r"warning: .*\.\.\.$", demo["proc"].stdout, re.M)
+    assert "white-space:pre-wrap" in demo["html"]          # long lines wrap in their box
+
+
+def test_mu_figure_on_log_axes_centred_on_the_band():
+    """The robust-margin figure: log frequency axis around the band (not 0-20 kHz), the
+    critical frequency marked, the y axis within three decades of the peak."""
+    from types import SimpleNamespace
+
+    from sdctrl.demo._robustness import _mu_figure
+
+    f = np.logspace(-1, np.log10(2e4), 400)
+    mu = 1e-14 + 0.85 / (1 + ((f - 15.81) / 0.2) ** 2)
+    r = SimpleNamespace(mu_freq=f, mu=mu, frequency=15.81, margin=1.17, margin_lower=1.18)
+    ax = _mu_figure(r, (8.0, 60.0)).axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    lo, hi = ax.get_xlim()
+    assert lo < 8.0 and hi > 60.0 and hi / lo < 100
+    assert 8.0 < np.sqrt(lo * hi) < 60.0                    # centred on the band
+    assert any(np.allclose(ln.get_xdata(), 15.81) for ln in ax.get_lines())
+    y0, y1 = ax.get_ylim()
+    assert y0 >= 0.85e-4 and y1 > 0.85
+
+
+def test_placement_number_is_the_tables_first_row(demo):
+    """The key number, the summary line and the ranking table measure the same thing (the
+    mean over the plate sensors of each one's RMS reduction) for the same bar."""
+    num = demo["steps"]["placement"]["numbers"]
+    sec = _md_section(_md(demo), "Where to put")
+    bar, pct = re.search(r"^\| 1 \| (N\d+-N\d+) \| ([\d.]+) % \|", sec, re.M).groups()
+    assert bar == "-".join(num["bar"])
+    assert float(pct) == pytest.approx(100 * num["rms_reduction"], abs=0.051)
+    assert f"plate RMS -{100 * num['rms_reduction']:.1f}% predicted" in demo["proc"].stdout

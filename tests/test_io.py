@@ -229,6 +229,27 @@ def test_uff_units_that_do_not_fit_are_refused(tmp_path, units):
     assert sd.read_uff(tmp_path / "v.uff").units == "m/s^2/N"
 
 
+@pytest.mark.parametrize("units", ["", "NONE", "none", "  "])
+def test_uff_units_that_would_read_back_as_none_are_refused(tmp_path, units):
+    """Issue 25 (fuzz): UFF writes missing units as NONE, so '' or 'NONE' would come back as
+    units=None -- refused up front; None itself round-trips."""
+    for binary in (True, False):
+        with pytest.raises(ValueError, match=r"frf.units .* reads an empty or NONE label back"):
+            sd.write_uff(_small(1, 1, units=units), tmp_path / "u.uff", binary=binary)
+    sd.write_uff(_small(1, 1), tmp_path / "v.uff")
+    assert sd.read_uff(tmp_path / "v.uff").units is None
+    back = sd.load(sd.save(_small(1, 1, units=units), tmp_path / "w"))   # npz keeps it
+    assert back.units == units
+
+
+def test_a_collocated_pair_given_twice_is_one_pair_and_round_trips(tmp_path):
+    """Issue 25 (fuzz): ((0, 0), (0, 0)) was kept twice in the FRF but read back once."""
+    frf = sd.FRF(np.linspace(1, 2, 3), np.ones((3, 2, 2)), collocated=[(0, 0), (1, 1), (0, 0)])
+    assert frf.collocated == ((0, 0), (1, 1))
+    sd.write_uff(frf, tmp_path / "c.uff")
+    assert sd.read_uff(tmp_path / "c.uff").collocated == frf.collocated
+
+
 def test_read_uff_on_an_npz_points_to_load(tmp_path):
     path = sd.save(_small(1, 1), tmp_path / "f")
     with pytest.raises(ValueError, match=r"f\.npz.* zip archive .*sdctrl\.load"):

@@ -490,9 +490,9 @@ def test_statespace_with_static_correction_modes_from_fe():
 
 def test_F_validation():
     true, _ = _truth(12)
-    with pytest.raises(ValueError, match=r"F must have shape \(12, 3\)"):
+    with pytest.raises(ValueError, match=r"F \(ns x na of [a-z, ]+\) must have shape \(12, 3\)"):
         true.replace(F=np.ones((3, 12)))
-    with pytest.raises(ValueError, match="F must contain only finite"):
+    with pytest.raises(ValueError, match=r"F \(ns x na of [a-z, ]+\) must contain only finite"):
         true.replace(F=np.full((12, 3), np.nan))
     F = np.ones((12, 3))
     m = true.replace(F=F)

@@ -385,6 +385,49 @@ def test_complex_residues_plane_and_phase_dispersion():
         sd.plot.complex_residues(cm, actuator="U7")
 
 
+def test_complex_residue_labels_never_overlap():
+    """Issue 25: residues in clusters (most sensors near the origin or near each other) get
+    labels that overlap no other label; the largest residue is always labelled."""
+    rng = np.random.default_rng(3)
+    big = np.array([1.0 + 0.1j, -0.9 - 0.2j])
+    cluster = 0.3 + 0.01 * (rng.standard_normal(20) + 1j * rng.standard_normal(20))
+    r = np.concatenate([big, cluster])
+    labels = [f"N{i}.y" for i in range(r.size)]
+    fig = sd.plot.complex_residues(r, sensors=labels)
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    rend = fig.canvas.get_renderer()
+    texts = [t for t in ax.texts if t.get_gid() == "sensor label"]
+    boxes = [t.get_window_extent(rend) for t in texts]
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    written = {t.get_text() for t in texts}
+    assert {"N0.y", "N1.y"} <= written               # the two large ones
+    assert 2 < len(written) < r.size                 # the pile is thinned, not all dropped
+    # each label sits next to its own point (within 25 points) and covers no other point
+    pts = {lab: z for lab, z in zip(labels, r)}
+    for t in texts:
+        z = pts[t.get_text()]
+        x, y = ax.transData.transform((z.real, z.imag))
+        b = t.get_window_extent(rend)
+        gap = np.hypot(max(b.x0 - x, 0, x - b.x1), max(b.y0 - y, 0, y - b.y1))
+        assert gap < 25 * fig.dpi / 72
+        for other in written - {t.get_text()}:
+            w = pts[other]
+            assert not b.contains(*ax.transData.transform((w.real, w.imag))), (t, other)
+
+
+def test_mode_shapes_panel_names_give_the_report_numbering():
+    nodes = {"A": (0.0, 0, 0), "B": (1.0, 0, 0), "C": (2.0, 0, 0)}
+    fe = sd.FEModel(np.eye(3), np.diag([1.0, 2, 3]), dofs=["A.y", "B.y", "C.y"], nodes=nodes,
+                    elements=[("A", "B"), ("B", "C")])
+    fig = sd.plot.mode_shapes(fe, modes=[1, 2], names=["band mode 1", "band mode 2"])
+    assert [ax.get_title() for ax in fig.axes] == ["band mode 1", "band mode 2"]
+    fig = sd.plot.mode_shapes(fe, modes=[1, 2])
+    assert fig.axes[0].get_title().startswith("mode 2: ")
+    with pytest.raises(ValueError, match="names must hold one title per mode"):
+        sd.plot.mode_shapes(fe, modes=[1, 2], names=["one"])
+
+
 def test_mode_shapes_on_fe_geometry():
     nodes = {"A": (0.0, 0, 0), "B": (1.0, 0, 0), "C": (2.0, 0, 0)}
     dofs = ["A.y", "B.y", "C.y", "B.x"]

@@ -320,7 +320,8 @@ def check_collocated(collocated, ns: int, na: int, name: str = "collocated",
                      actuators: Sequence[str] | None = None) -> tuple[tuple[int, int], ...]:
     """Collocated (sensor, actuator) index pairs, in range; labels are accepted too.
 
-    ``collocated`` is one pair ``(s, a)`` (two labels or indices) or a sequence of pairs.
+    ``collocated`` is one pair ``(s, a)`` (two labels or indices) or a sequence of pairs; a
+    pair given twice is kept once (in the order first given).
     """
     if collocated is None:
         return ()
@@ -354,7 +355,7 @@ def check_collocated(collocated, ns: int, na: int, name: str = "collocated",
         if not (0 <= a < na):
             raise ValueError(f"{name}: actuator index {a} out of range [0, {na})")
         out.append((int(s), int(a)))
-    return tuple(out)
+    return tuple(dict.fromkeys(out))            # a pair given twice is one pair
 
 
 def _is_pair(x) -> bool:

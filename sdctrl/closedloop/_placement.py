@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sdctrl._lib.parallel import chunked, map_chunks
-from sdctrl._lib.validate import check_band, check_executor, check_scalar
+from sdctrl._lib.validate import check_band, check_executor, check_int, check_scalar
 
 __all__ = ["Candidate", "PlacementStudy", "placement_study"]
 
@@ -121,6 +121,7 @@ class PlacementStudy:
         -------
         str
         """
+        k = check_int(k, "k", minimum=1)
         head = ("| rank | bar | mean RMS reduction | min damping in band | score |\n"
                 "|---:|---|---:|---:|---:|\n")
         rows = [f"| {i + 1} | {c.bar[0]}-{c.bar[1]} | {100 * np.mean(c.reduction):.1f} % | "

@@ -105,8 +105,12 @@ def _unescape(text: str, path: str) -> str:
 # ------------------------------------------------------------------------------------------
 def _units(frf: FRF) -> str:
     u = frf.units
-    if not u:
+    if u is None:
         return "NONE"
+    if u.strip().upper() in ("", "NONE"):       # both read back as no units: refused up front
+        raise ValueError(f"frf.units {u!r} cannot be written to UFF: UFF marks missing units "
+                         "as NONE and reads an empty or NONE label back as units=None (build "
+                         "the FRF with units=None, or save it with sdctrl.save)")
     if len(u) > 20 or u != u.strip() or not all(" " <= ch <= "~" for ch in u):
         raise ValueError(f"frf.units {u!r} cannot be written to UFF: a UFF units label holds at "
                          "most 20 printable ASCII characters without leading or trailing blanks "

@@ -63,8 +63,11 @@ class Robustness:
         n, ok = self.samples
         scale = abs(2 * np.pi * r.frequency) or 1.0
         return [Check("nominal closed loop stable", bool(r.stable), True),
-                Check("guaranteed margin (1 / upper bound of mu)", float(r.margin)),
-                Check("destabilising size found (1 / lower bound of mu)", float(r.margin_lower)),
+                Check("guaranteed margin (1 / upper bound of mu)", float(r.margin),
+                      unit="x the bounds"),
+                Check("destabilising size found (1 / lower bound of mu)", float(r.margin_lower),
+                      unit="x the bounds"),
+                Check("critical frequency (peak of mu)", float(r.frequency), unit="Hz"),
                 Check("gap between the bounds", float(gap), 0.0, float(gap), 0.1),
                 Check("closed loop at the destabilising Delta is unstable",
                       bool(self.abscissa["closed"] >= -1e-6 * scale), True),
@@ -85,8 +88,6 @@ class Robustness:
         doc : sdctrl.report.Document
             The report the section is appended to.
         """
-        from matplotlib.figure import Figure
-
         r = self.result
         s = doc.section("robustness", "Structured uncertainty and a robust-stability margin")
         s.paragraph(
@@ -109,17 +110,39 @@ class Robustness:
                        "(`sdctrl.robust._uncertainty.psd_gamma_bound`, 5.2.2) remove such Delta."
                        if op > 0 else "the open loop is stable there: the controller is what "
                        "the perturbation destabilises."))
-        fig = Figure(figsize=(8, 3.6), layout="constrained")
-        ax = fig.add_subplot(1, 1, 1)
-        ax.semilogy(r.mu_freq, r.mu, ".-", ms=3, lw=0.8, label="upper bound of mu")
-        ax.axhline(1 / r.margin_lower, color="tab:red", ls="--", lw=0.8,
-                   label="lower bound (destabilising Delta)")
-        ax.set_xlabel("frequency (Hz)")
-        ax.set_ylabel("mu (1 / margin)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-        s.figure(fig, "Structured singular value over frequency: its peak is 1/margin.",
-                 "mu")
+        from sdctrl.testbeds._truss import TESTBED_BAND
+
+        lo, hi = TESTBED_BAND
+        s.figure(_mu_figure(r, TESTBED_BAND), "Structured singular value over frequency (log "
+                 f"axes, the test band {lo:g}-{hi:g} Hz shaded): its peak is 1/margin, at the "
+                 f"critical frequency {r.frequency:.2f} Hz (dotted line).", "mu")
+
+
+def _mu_figure(r, band):
+    """mu upper bound on log axes centred on the test band, the critical frequency marked."""
+    from matplotlib.figure import Figure
+
+    f, mu = np.asarray(r.mu_freq, float), np.asarray(r.mu, float)
+    lo, hi = band
+    fc = float(r.frequency)
+    xlo = min(lo, fc) / 3 if fc > 0 else lo / 3
+    xhi = max(hi, fc) * 3
+    keep = (f > 0) & (f >= xlo) & (f <= xhi) & np.isfinite(mu) & (mu > 0)
+    fig = Figure(figsize=(8, 3.6), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    ax.axvspan(lo, hi, color="0.92", zorder=0, label=f"test band {lo:g}-{hi:g} Hz")
+    ax.loglog(f[keep], mu[keep], ".-", ms=3, lw=0.8, label="upper bound of mu")
+    top = max(float(mu[keep].max()) if keep.any() else 1.0, 1 / r.margin_lower)
+    ax.axhline(1 / r.margin_lower, color="tab:red", ls="--", lw=0.8,
+               label=f"lower bound (destabilising Delta): {1 / r.margin_lower:.3g}")
+    ax.axvline(fc, color="k", ls=":", lw=1.0, label=f"critical frequency {fc:.2f} Hz")
+    ax.set_xlim(xlo, xhi)
+    ax.set_ylim(top * 1e-3, top * 2)          # three decades below the peak: the peak's shape
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("mu (1 / margin)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="lower left")
+    return fig
 
 
 def robust_strut(hybrid, placement, update, progress: bool | None = None) -> Robustness:

@@ -62,6 +62,15 @@ def _one_line(text: str, width: int = 160) -> str:
     return text if len(text) <= width else text[:width - 3] + "..."
 
 
+def _wrapped(text: str, indent: str = "      ", width: int = 100) -> str:
+    """``text`` in full (never cut), on lines of ``width`` characters after ``indent``."""
+    import textwrap
+
+    return textwrap.fill(" ".join(str(text).split()), width=width, initial_indent=indent,
+                         subsequent_indent=indent + "  ", break_long_words=False,
+                         break_on_hyphens=False)
+
+
 class StepLog:
     """Runs the steps of a command and prints one line per step.
 
@@ -141,7 +150,7 @@ class StepLog:
         summary = getattr(record, "summary", "")
         self.say(f"{head}: {summary}  ({dt:.1f} s)")
         for w in entry.warnings:
-            self.say(f"      warning: {_one_line(w)}")
+            self.say(_wrapped(f"warning: {w}"))
         return record
 
     def unavailable(self, key: str, title: str, reason: str) -> None:

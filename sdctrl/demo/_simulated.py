@@ -167,9 +167,18 @@ class SimulatedTest:
         s.paragraph(f"True modes in the band (exact damped eigenvalues of the FE model): "
                     f"{self.poles.size}.")
         s.markdown(modes_table(self.poles))
-        s.figure(plot.mode_shapes(fe, modes=[6, 8, 9]), "Three modes of the true structure "
-                 "(the second and third are the close pair coupled by the plate-A damper).",
-                 "true_modes")
+        f_fe, _ = fe.modes(12)
+        below = int(np.sum(f_fe <= f.freq[0]))        # suspension modes under the band
+        idx = [below, below + 2, below + 3]             # modes 1, 3, 4 of the band
+        names = [f"mode {m - below + 1}: {f_fe[m]:.2f} Hz undamped" for m in idx]
+        pair = np.sort(np.abs(self.poles) / (2 * np.pi))[2:4]
+        s.figure(plot.mode_shapes(fe, modes=idx, names=names), "Modes 1, 3 and 4 of the band, "
+                 "numbered as in the table (3 and 4 are the close pair coupled by the plate-A "
+                 "damper). The titles give the undamped natural frequencies of the FE modes, "
+                 "the table the frequencies |lambda|/2pi of the damped poles: the damping "
+                 f"coupling moves the close pair's poles ({pair[0]:.2f} and {pair[1]:.2f} Hz) "
+                 f"away from its undamped frequencies ({f_fe[idx[1]]:.2f} and "
+                 f"{f_fe[idx[2]]:.2f} Hz).", "true_modes")
 
 
 def simulated_testbed_test(noise: float = 0.01, seed: int = 0, n: int = 1000):

@@ -224,7 +224,7 @@ def fit_free_mode(placed, H) -> dict | None:
     c, b = U[:, 0] * np.sqrt(S[0]), Vt[0] * np.sqrt(S[0])
     J = cost(H + phi[:, None, None] * np.outer(c, b)[None], placed.Hd)
     wr, zr, cr, br = _refine_mode(placed, H, wm, zm, c, b, (lo, hi))
-    phr = 1.0 / (placed.s**2 + 2 * zr * wr * placed.s + wr**2)
+    phr = 1.0 / (placed.s**2 + 2 * zr * wr * placed.s + np.square(wr))   # inf, not an error
     Jr = cost(H + phr[:, None, None] * np.outer(cr, br)[None], placed.Hd)
     if Jr < J:
         wm, zm, c, b, J = wr, zr, cr, br, Jr

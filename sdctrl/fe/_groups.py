@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from sdctrl._lib.frozen import FrozenState
+from sdctrl._lib.validate import check_scalar
 from sdctrl.fe._elements import DIRECTIONS, assemble_coo, member_matrices
 from sdctrl.fe._parameters import DEFAULT_BOUNDS, Parameter
 
@@ -33,7 +34,10 @@ __all__ = ["Assembly", "ElementGroups"]
 def _names(x, what: str) -> tuple[str, ...] | None:
     if x is None:
         return None
-    items = (x,) if isinstance(x, str) else tuple(x)
+    try:
+        items = (x,) if isinstance(x, str) else tuple(x)
+    except TypeError:
+        items = ()
     if not items or not all(isinstance(v, str) for v in items):
         raise TypeError(f"{what} must be a string or a sequence of strings, got {x!r}")
     return items
@@ -173,7 +177,7 @@ class Assembly(FrozenState):
             raise TypeError("elements must be a sequence of (node_a, node_b) pairs")
         out = set()
         for e in elements:
-            if isinstance(e, str) or len(e) != 2:
+            if isinstance(e, str) or not isinstance(e, Sequence) or len(e) != 2:
                 raise ValueError(f"elements must contain node-name pairs, got {e!r}")
             try:
                 out.add(frozenset((nid[str(e[0])], nid[str(e[1])])))
@@ -382,6 +386,8 @@ class ElementGroups(FrozenState):
         -------
         Parameter
         """
+        if nodes is None:
+            raise TypeError("nodes must be a node name or a sequence of node names, got None")
         names = list(_names(nodes, "nodes"))
         if mass is None:
             if inertia is not None:
@@ -394,7 +400,7 @@ class ElementGroups(FrozenState):
         return Parameter(name, dM=dM, bounds=bounds, scale=scale, description=desc)
 
     def _added_mass(self, names, mass, inertia) -> sp.csr_matrix:
-        m = float(mass)
+        m = check_scalar(mass, "mass")
         if not np.isfinite(m) or m <= 0:
             raise ValueError(f"mass must be a positive mass in kg, got {mass!r}")
         J = np.zeros(3) if inertia is None else np.asarray(inertia, float)

@@ -105,8 +105,8 @@ class ComplexModeModel(FrozenState):
             raise ValueError("poles must lie in the upper half-plane (Im > 0), one per mode")
         if np.any(lam.real >= 0):
             raise ValueError("poles must be stable (Re < 0)")
-        E = np.zeros((ns, na)) if self.E is None else as_array(self.E, "E", shape=(ns, na))
-        F = np.zeros((ns, na)) if self.F is None else as_array(self.F, "F", shape=(ns, na))
+        E, F = (np.zeros((ns, na)) if X is None else as_array(X, f"{k} (ns x na of residues)",
+                shape=(ns, na)) for k, X in (("E", self.E), ("F", self.F)))
         ib = _mask(self.in_band, n)
         sensors = check_labels(self.sensors, ns, "sensors", "s")
         actuators = check_labels(self.actuators, na, "actuators", "a")
@@ -372,10 +372,13 @@ class ComplexModeModel(FrozenState):
         Returns
         -------
         control.StateSpace
-            Real ``A``, ``B``, ``C``, ``D``; outputs named after the sensors, inputs after
-            the actuators followed by ``_u`` (``.`` replaced by ``_``).  For displacement
-            the model is exact (``E`` as feedthrough, ``F/s^2`` by a double integrator per
-            actuator).
+            Real ``A, B, C, D``; outputs named after the sensors, inputs after the actuators
+            plus ``_u`` (``.`` replaced by ``_``); exact for displacement (``E`` as
+            feedthrough, ``F/s^2`` by a double integrator per actuator).
+
+        Warnings
+        --------
+        ``control.feedback`` drops signal names (``y[0]``...): use :func:`sdctrl.feedback`.
 
         Notes
         -----
@@ -386,9 +389,6 @@ class ComplexModeModel(FrozenState):
         strictly proper part stays exact, while ``E s^k`` and, for acceleration, the
         ``s sum_j (R_j + R_j^*)`` term (zero for proper modes, 3.39) are realised through
         ``w_c^2 / (s + w_c)^2`` (2.20), accurate to about ``2 w / w_c`` in the band.
-
-        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
-        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
         """
         return to_statespace(self, quantity, omega_c)
 

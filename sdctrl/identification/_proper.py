@@ -15,8 +15,9 @@ sets of ``2 n`` modes over which the sums of (3.40)-(3.45) run, so that every su
 
 from __future__ import annotations
 
+
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -295,7 +296,43 @@ def _transposed(cm, pairs, **options):
 
 def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
     """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm`` (``residual``: the
-    poles kept as residual dynamics, not left out)."""
+    poles kept as residual dynamics, not left out), scale-free.
+
+    Every step is homogeneous in the residues: they are divided by ``s = 4^m``, a power of
+    two near their size (exact in floating point), and the result scaled back (``cphi``,
+    ``phib`` by ``2^m``, ``E``, ``F`` by ``s``), so that products such as
+    ``psi psi^T psi psi^T`` neither underflow nor overflow for FRFs of any unit.
+    """
+    peak = float(np.abs(np.asarray(cm.residues)[sel]).max()) if len(sel) else 0.0
+    m = int(np.frexp(peak)[1]) // 2 if np.isfinite(peak) and peak > 0 else 0
+    if m == 0:
+        nm = _transform_scaled(cm, sel, pairs, tol, maxiter, residual)
+    else:
+        s = 4.0**m
+        nm = _scaled_back(_transform_scaled(cm.replace(
+            residues=np.asarray(cm.residues) / s, E=None if cm.E is None else cm.E / s,
+            F=None if cm.F is None else cm.F / s, statistics=None), sel, pairs, tol, maxiter,
+            residual), s, 2.0**m)
+    if not std:
+        return nm
+    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False)  # noqa: E731 -- (3.4)
+    return with_std(nm, cm, again)
+
+
+def _scaled_back(nm, s: float, r: float):
+    """The model of residues ``s R`` from that of ``R`` (``r = sqrt(s)``, powers of two)."""
+    p = nm.properness
+    ev = None if p.sensor_eigenvalues is None else p.sensor_eigenvalues * s
+    rec = replace(p, cpsi=p.cpsi * r, psib=p.psib * r, psi_proper=p.psi_proper * r,
+                              sensor_eigenvalues=ev, M_T=p.M_T / s, C_T=p.C_T / s,
+                              K_T=p.K_T / s, mass_eigenvalues=p.mass_eigenvalues / s,
+                              stiffness_eigenvalues=p.stiffness_eigenvalues / s)
+    return nm.replace(cphi=nm.cphi * r, phib=nm.phib * r, E=None if nm.E is None else nm.E * s,
+                      F=None if nm.F is None else nm.F * s, properness=rec)
+
+
+def _transform_scaled(cm, sel, pairs, tol, maxiter, residual=()):
+    """Steps 1-5 of :func:`normal_modes` on residues of order one (see :func:`_transform`)."""
     from sdctrl.modal._normal_model import NormalModeModel
 
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
@@ -324,7 +361,7 @@ def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
     if pole_err > 1e-6:
         warnings.warn(f"normal_modes: poles of the normal-mode model depart from the "
                       f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
-                      stacklevel=3)
+                      stacklevel=4)
     left = np.setdiff1d(np.arange(cm.n), np.union1d(sel, np.asarray(residual, int)))
     Rn = _residues(cphi, Psi, phib)
     record = Properness(
@@ -338,11 +375,7 @@ def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
         band=None if cm.band is None else tuple(float(v) for v in cm.band),
         poles_used=np.asarray(sel), poles_left_out=left,
         poles_left_out_hz=np.asarray(cm.frequency)[left])
-    nm = nm.replace(properness=record)
-    if not std:
-        return nm
-    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False)  # noqa: E731 -- (3.4)
-    return with_std(nm, cm, again)
+    return nm.replace(properness=record)
 
 
 def _check_poles(lam, ns: int) -> None:
@@ -371,7 +404,7 @@ def _reduced_coordinates(cpsi, lam):
     if np.any(ev[:n] <= 0):
         warnings.warn("normal_modes: the kept eigenvalues of (c psi) Lambda (c psi)^T "
                       "(3.47) are not all positive; the identified mass will not be "
-                      "positive definite", RuntimeWarning, stacklevel=4)
+                      "positive definite", RuntimeWarning, stacklevel=5)
     return V[:, :n], ev
 
 

@@ -136,7 +136,7 @@ def proper_modes(psi: np.ndarray, tol: float = 1e-13, maxiter: int = 50):
     if radius > DELTA_WARN:
         warnings.warn(f"normal_modes: large properness correction, max |eig(delta)| = "
                       f"{radius:.3g} (should be well below 1, 3.54)", RuntimeWarning,
-                      stacklevel=3)
+                      stacklevel=4)
     psi_p = np.linalg.solve(np.eye(n) - delta @ delta, psi - delta @ psi.conj())
     after = float(np.linalg.norm(2.0 * (psi_p @ psi_p.T).real)
                   / np.linalg.norm(2.0 * (psi_p @ psi_p.conj().T).real))

@@ -97,7 +97,7 @@ def transformation(psi: np.ndarray, lam: np.ndarray) -> ReducedMatrices:
     ec = sla.eigh(CT, MT, eigvals_only=True)       # damping relative to mass: rad/s
     pd["damping"] = bool(ec.min() >= -1e-12 * max(np.abs(ec).max(), 1e-300))
     if not pd["damping"]:
-        warnings.warn(damping_advice(ec), RuntimeWarning, stacklevel=4)
+        warnings.warn(damping_advice(ec), RuntimeWarning, stacklevel=5)
     return ReducedMatrices(MT, CT, KT, np.linalg.eigvalsh(MT), np.linalg.eigvalsh(KT), ec, pd)
 
 

@@ -144,8 +144,10 @@ class NormalModeModel(FrozenState):
             scale = max(np.abs(X).max(), 1e-300)
             if np.abs(X - X.T).max() > 1e-8 * scale:
                 raise ValueError(f"{name} must be symmetric")
-        E = None if self.E is None else as_array(self.E, "E", shape=(ns, na))
-        F = None if self.F is None else as_array(self.F, "F", shape=(ns, na))
+        E = None if self.E is None else as_array(self.E, "E (ns x na of cphi, phib)",
+                                                 shape=(ns, na))
+        F = None if self.F is None else as_array(self.F, "F (ns x na of cphi, phib)",
+                                                 shape=(ns, na))
         shapes = None
         if self.shapes is not None:
             shapes = as_array(self.shapes, "shapes", ndim=2)
@@ -378,10 +380,12 @@ class NormalModeModel(FrozenState):
             ``2 n`` modal states, plus those of :attr:`residual`, of the ``E`` correction
             (velocity/acceleration, ``2 na``) and of ``F`` (``3 na``, ``2 na`` rigid).
 
-        Notes
-        -----
-        Close loops on it with :func:`sdctrl.feedback`, which keeps the signal names:
-        ``control.feedback`` drops them (its result is named ``u[i]``, ``y[i]``).
+        Warnings
+        --------
+        ``control.feedback(G, K)`` drops the signal names (its outputs become ``y[0]``,
+        ``y[1]``, ... and its inputs ``u[0]``, ...) and ``control.interconnect`` numbers
+        them unless told otherwise: close loops with :func:`sdctrl.feedback`, which keeps
+        the plant's names.
         """
         return to_statespace(self, quantity, omega_c, rigid_body=rigid_body)
 

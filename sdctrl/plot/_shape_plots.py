@@ -124,7 +124,8 @@ def complex_residues(data, mode: int = 0, path: str | os.PathLike | None = None,
         Legend entry per set.
     sensors : sequence of str, optional
         Sensor labels written next to the points of the first set that reach ``rel`` of
-        its largest residue (default the model's labels, if any).
+        its largest residue (default the model's labels, if any), largest first; a label
+        that would overlap one already written is left out.
     rel : float
         Threshold of :func:`phase_dispersion`.
 
@@ -170,11 +171,6 @@ def complex_residues(data, mode: int = 0, path: str | os.PathLike | None = None,
     th = _principal_angle(r0)
     ax.plot([-big * np.cos(th), big * np.cos(th)], [-big * np.sin(th), big * np.sin(th)],
             "--", color="0.5", lw=0.8)
-    if sens is not None and ns <= LABEL_MAX:
-        shown = np.abs(r0) >= rel * np.abs(r0).max()          # no pile of labels at 0
-        for lab, z in zip(np.asarray(sens)[shown], r0[shown]):
-            ax.annotate(str(lab), (z.real, z.imag), fontsize=6, xytext=(3, 3),
-                        textcoords="offset points")
     ax.axhline(0, color="k", lw=0.5)
     ax.axvline(0, color="k", lw=0.5)
     ax.set_aspect("equal", adjustable="datalim")
@@ -189,7 +185,43 @@ def complex_residues(data, mode: int = 0, path: str | os.PathLike | None = None,
     where = f" ({f0:.4g} Hz)" if f0 is not None else ""
     default = (f"mode {int(mode) + 1}{where}: phase dispersion "
                f"{phase_dispersion(r0, rel):.1f} deg")
+    fig.suptitle(title or default)                  # the final layout, before the labels
+    if sens is not None and ns <= LABEL_MAX:
+        shown = np.flatnonzero(np.abs(r0) >= rel * np.abs(r0).max())   # no pile at 0
+        _place_labels(fig, ax, [str(sens[i]) for i in shown], r0[shown])
     return finish(fig, path, title or default)
+
+
+#: label positions tried around a point (offset in points, horizontal alignment)
+_LABEL_SPOTS = ((3, 3, "left"), (3, -9, "left"), (-3, 3, "right"), (-3, -9, "right"),
+                (3, 12, "left"), (-3, 12, "right"), (3, -18, "left"), (-3, -18, "right"))
+
+
+def _place_labels(fig, ax, labels, points) -> int:
+    """Write each label next to its point where it overlaps no other label and no other
+    labelled point's marker (largest points first; a label with no free spot is left out).
+    Returns the number written."""
+    from matplotlib.transforms import Bbox
+
+    fig.canvas.draw()                               # final limits (equal aspect) and layout
+    renderer = fig.canvas.get_renderer()
+    xy = ax.transData.transform(np.column_stack([points.real, points.imag]))
+    half = 3.5 * fig.dpi / 72                       # half the marker size (ms=7 points)
+    markers = [Bbox([[x - half, y - half], [x + half, y + half]]) for x, y in xy]
+    taken = []
+    for k in np.argsort(-np.abs(points), kind="stable"):
+        z = points[k]
+        for dx, dy, ha in _LABEL_SPOTS:
+            t = ax.annotate(labels[k], (z.real, z.imag), fontsize=6, xytext=(dx, dy),
+                            textcoords="offset points", ha=ha, gid="sensor label")
+            t.set_in_layout(False)                  # labels never move the axes
+            box = t.get_window_extent(renderer)
+            if not any(box.overlaps(b) for b in taken) and not any(
+                    box.overlaps(m) for i, m in enumerate(markers) if i != k):
+                taken.append(box)
+                break
+            t.remove()
+    return len(taken)
 
 
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -228,7 +260,7 @@ def _shape_source(fe, shapes, modes, dofs):
 
 def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
                 title: str | None = None, *, dofs=None, scale: float | None = None,
-                max_cols: int = 3) -> Figure:
+                max_cols: int = 3, names=None) -> Figure:
     """Mode shapes on the FE geometry: undeformed wireframe and deformed shape, 3-D axes.
 
     Parameters
@@ -255,6 +287,10 @@ def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
         structure's size, per mode).
     max_cols : int
         Panels per row.
+    names : sequence of str, optional
+        Panel titles, one per mode (default ``"mode k: f Hz"`` with ``k`` the 1-based
+        column of ``shapes``): give the numbering of the report's tables when the shapes'
+        columns are numbered otherwise (e.g. FE modes below the test band).
 
     Returns
     -------
@@ -280,6 +316,8 @@ def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
     if max(idx) >= phi.shape[1]:
         raise ValueError(f"modes: index {max(idx)} out of range for {phi.shape[1]} shapes")
     scale = check_scalar(scale, "scale", positive=True, optional=True)
+    if names is not None and (isinstance(names, str) or len(names) != len(idx)):
+        raise ValueError(f"names must hold one title per mode ({len(idx)}), got {names!r}")
     rows, cols = grid_shape(len(idx), max_cols)
     fig = figure(4.8 * cols, 3.8 * rows + 0.4)
     for k, m in enumerate(idx):
@@ -288,7 +326,7 @@ def mode_shapes(fe, shapes=None, modes=0, path: str | os.PathLike | None = None,
         v = np.real(v * np.exp(-1j * _principal_angle(v)))
         _draw_shape(ax, fe, v, labels, scale)
         name = f"mode {m + 1}" + (f": {freq[m]:.4g} Hz" if freq is not None else "")
-        ax.set_title(name, fontsize=10)
+        ax.set_title(name if names is None else str(names[k]), fontsize=10)
     return finish(fig, path, title)
 
 

@@ -21,7 +21,8 @@ import numpy as np
 from sdctrl._lib.display import markdown_table
 from sdctrl.report._markup import CSS, html_table, inline, markdown_to_html, nest_headings
 
-__all__ = ["Check", "Document", "Section", "markdown_table", "markdown_to_html", "modes_table"]
+__all__ = ["Check", "Document", "Section", "markdown_table", "markdown_to_html", "modes_table",
+           "psd_check"]
 
 
 def modes_table(poles, reference=None) -> str:
@@ -49,10 +50,10 @@ def modes_table(poles, reference=None) -> str:
     fr = np.abs(ref) / (2 * np.pi)
     zr = -ref.real / np.abs(ref)
     rows = [(j + 1, f"{fr[j]:.4f}", f"{f[j]:.4f}", f"{(f[j] - fr[j]) / fr[j]:.1e}",
-             f"{100 * zr[j]:.3f}", f"{100 * z[j]:.3f}", f"{z[j] - zr[j]:.1e}")
+             f"{100 * zr[j]:.3f}", f"{100 * z[j]:.3f}", f"{100 * (z[j] - zr[j]):.1e}")
             for j in range(poles.size)]
-    return markdown_table(["mode", "f true (Hz)", "f model (Hz)", "rel. error", "zeta true (%)",
-                           "zeta model (%)", "abs. error"], rows)
+    return markdown_table(["mode", "f true (Hz)", "f model (Hz)", "f rel. error",
+                           "zeta true (%)", "zeta model (%)", "zeta error (% points)"], rows)
 
 
 # --- key numbers ----------------------------------------------------------------------------
@@ -119,6 +120,36 @@ class Check:
         verdict = {True: "ok", False: "FAILED", None: ""}[self.passed]
         truth = "" if self.truth is None else _fmt(self.truth) + unit
         return (self.quantity, _fmt(self.value) + unit, truth, err, tol.strip(), verdict)
+
+
+def psd_check(nm) -> list[Check]:
+    """The positive-semi-definiteness (3.45) of a normal-mode model's damping, named by its
+    size, so that a report gives one verdict per model however many models it shows.
+
+    Parameters
+    ----------
+    nm : NormalModeModel
+        A model from :func:`sdctrl.normal_modes` (its ``properness`` record holds the
+        eigenvalues of the identified damping relative to the mass, rad/s).
+
+    Returns
+    -------
+    list of Check
+        The verdict (``yes``/``no``, no truth: an identified damping matrix may be
+        indefinite by the noise alone) and, when known, the smallest eigenvalue (rad/s)
+        with its size relative to the largest.
+    """
+    rec = getattr(nm, "properness", None)
+    pd = (rec.positive_definite if rec is not None else None) or {}
+    name = f"damping matrix of the {nm.n}-mode model"
+    out = [Check(f"{name}: positive semi-definite (3.45)", bool(pd.get("damping", True)))]
+    ev = None if rec is None else rec.damping_eigenvalues
+    if ev is not None and np.size(ev):
+        ev = np.asarray(ev, float)
+        big = float(np.abs(ev).max()) or 1.0
+        out.append(Check(f"{name}: smallest eigenvalue ({ev.min() / big:.1e} of the largest, "
+                         f"{big:.3g} rad/s)", float(ev.min()), unit="rad/s"))
+    return out
 
 
 _CHECK_HEADER = ("quantity", "obtained", "truth", "error", "tolerance", "")

@@ -156,7 +156,7 @@ h1{border-bottom:2px solid #345;padding-bottom:.2em}
 h2{border-bottom:1px solid #ccd;margin-top:2em;padding-bottom:.1em}
 code,pre{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.92em}
 code{background:#f3f3f6;padding:0 .2em;border-radius:3px}
-pre{background:#f6f6f9;padding:.6em;overflow-x:auto}
+pre{background:#f6f6f9;padding:.6em;white-space:pre-wrap;overflow-wrap:anywhere}
 table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
 th,td{border:1px solid #ccd;padding:.2em .55em;text-align:left}
 th{background:#eef0f6}td.num{text-align:right}

@@ -147,9 +147,9 @@ def _cached(link_stiffness: float = 1.0, plate_mass: float = 1.0):
 
 
 def _factor(x, name: str) -> float:
-    v = float(x)
-    if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a positive scale factor, got {x!r}")
+    v = check_scalar(x, name)                  # a real number (not text, complex, an array)
+    if not 1e-6 <= v <= 1e6:                   # beyond: the matrices leave double range
+        raise ValueError(f"{name} must be a positive scale factor in [1e-6, 1e6], got {x!r}")
     return v
 
 
@@ -216,9 +216,10 @@ def testbed(*, link_stiffness: float = 1.0, plate_mass: float = 1.0):
     Parameters
     ----------
     link_stiffness : float
-        Factor on the stiffness (Young's modulus) of the post beams, their mass unchanged.
+        Factor on the stiffness (Young's modulus) of the post beams, their mass unchanged
+        (in ``[1e-6, 1e6]``).
     plate_mass : float
-        Factor on the lumped plate masses and inertias.
+        Factor on the lumped plate masses and inertias (in ``[1e-6, 1e6]``).
 
     Returns
     -------

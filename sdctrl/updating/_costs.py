@@ -45,6 +45,9 @@ def quadratic(model, test) -> float:
 def relative_error(model, test) -> float:
     """Relative quadratic FRF error ``||H_model - H_test||_F / ||H_test||_F``.
 
+    Invariant to a common scaling of both FRFs (from 1e-300 to 1e300: the norms are taken
+    after an exact division by a power of two near ``max |H_test|``).
+
     Parameters
     ----------
     model, test : FRF or array_like
@@ -55,6 +58,10 @@ def relative_error(model, test) -> float:
     float
     """
     a, b = _pair(model, test)
+    peak = float(np.abs(b).max()) if b.size else 0.0
+    if np.isfinite(peak) and peak > 0:          # a power of two: exact, no under/overflow
+        k = 2.0 ** -int(np.frexp(peak)[1])
+        a, b = a * k, b * k
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
