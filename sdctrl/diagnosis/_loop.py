@@ -181,7 +181,20 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     mass on a spring along one axis) at any node translation -- ranks them by their error
     reduction penalised by their number of parameters and of hypotheses scanned (extended
     BIC on the complex logLS residual, noise level from its second differences), adds the
-    best to the model and starts again, until no candidate helps enough.  Physical candidates
+    best to the model, refits the sizes of all the effects accepted so far together
+    (:mod:`._joint_fit`) and starts again, until no candidate helps enough.
+
+    Nothing is invented: the best candidate is accepted only when (a) the error it removes
+    exceeds what noise alone would remove by chance in a search over that many candidates --
+    under the null hypothesis (residual = complex Gaussian noise of variance ``sigma^2``,
+    estimated from the data) ``T = 2 N (J - J_e) / sigma^2`` is chi-square with ``k`` (its
+    number of parameters) degrees of freedom, and the Bonferroni bound over the ``M``
+    hypotheses of the step (every family's locations, lines or channels together), ``M
+    P(chi^2_k > T)``, must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the
+    error above the noise level and 1% of the initial one.  An extra mode found inside the
+    band (its peak and half-power points in it) and significant excludes the residual
+    flexibility/mass terms of that step: those stand for effects outside the band and would
+    otherwise absorb a missing in-band mode.  Physical candidates
     are evaluated by reanalysis (4.17), (5.2): the change is a low-rank feedback on its load
     shape (4.22), completed by its static correction (4.23), evaluated on all lines at once by
     a Woodbury update of the model's complex modes; a vectorised screen ranks them all, the
@@ -272,8 +285,10 @@ def _hypotheses(props) -> int:
 
 def _in_band(p, freq) -> bool:
     """A free extra mode whose peak and half-power points lie inside the band."""
+    if p["action"] != "mode":
+        return False
     f, z = p["parameters"]["frequency"], p["parameters"]["damping"]
-    return p["action"] == "mode" and freq[0] <= f * (1 - z) and f * (1 + z) <= freq[-1]
+    return bool(freq[0] <= f * (1 - z) and f * (1 + z) <= freq[-1])
 
 
 def _ranked(props, J, sigma2, N, freq):
