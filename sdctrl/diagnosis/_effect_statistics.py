@@ -84,14 +84,14 @@ def joint_std(props, model, placed, placed0, sigma2) -> list:
     if x0.size == 0:
         return [{} for _ in props]
 
-    def log_response(x):
+    def response(x):
         m = model
         for i, p in enumerate(props):
             q = copy.deepcopy(p)
             for (setter, _v, _g), xi in zip(coords[i], x[owner == i]):
                 setter(q["payload"], xi)
             m = apply_effect(m, q, placed)
-        return np.log(placed0.response(m))
+        return placed0.response(m)
 
     cols = []
     for i in range(x0.size):
@@ -99,7 +99,8 @@ def joint_std(props, model, placed, placed0, sigma2) -> list:
         xp, xm = x0.copy(), x0.copy()
         xp[i] += h
         xm[i] -= h
-        d = (log_response(xp) - log_response(xm)).ravel() / (2 * h)
+        # Log(H+ / H-), not Log H+ - Log H-: no 2 pi jump where the phase crosses the cut
+        d = np.log(response(xp) / response(xm)).ravel() / (2 * h)
         cols.append(np.r_[d.real, d.imag])
     cov = _covariance(np.array(cols).T, sigma2 / 2.0)
     out = []

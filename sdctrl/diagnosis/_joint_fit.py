@@ -4,7 +4,8 @@ Each step of :func:`sdctrl.diagnose` fits its candidates to the residual left by
 already accepted, their sizes held.  Two effects whose responses overlap (a mass near a
 dashpot, both shifting and damping the same modes) then share the error between them in the
 order they were found: the first absorbs part of the second.  After each accepted effect the
-sizes of all accepted effects are therefore fitted again together, by nonlinear least squares
+sizes of all accepted effects are therefore fitted again together (the first alone too: its
+candidate fit, on a window of lines or a grid, is polished on all the data), by nonlinear least squares
 (trust-region reflective, finite-difference Jacobian) on the complex logLS residual (3.12)
 ``r(x) = Log(H(x) / H_d)`` of every line and channel, ``H(x)`` the model with every effect
 applied in turn at the coordinates ``x`` (their sizes, and for an extra mode its frequency,
