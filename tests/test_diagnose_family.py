@@ -224,10 +224,13 @@ def _residue(e):
     return np.outer(e.parameters["cphi"], e.parameters["phib"])
 
 
-def _check(name, c, e, tol, noise):
+def _check(name, c, e, tol, noise, clean=None):
     """The effect ``e`` is the planted ``c``: kind, place, sizes within ``tol`` (a missing
     mode: frequency within 0.5%, damping within 20%, its residue at the tested channels within
-    ``tol``); with noise, the truth within 3 standard deviations."""
+    ``tol``); with noise, the truth within 3 standard deviations of the fitted size, plus the
+    bias of the noise-free diagnosis ``clean`` (the standard deviation is the noise's: the
+    data's reduction, with the static correction of the change's load path, is not exactly
+    the model's, a bias below 0.5% measured noise-free)."""
     kind, where, _ = c
     loc, truth = _truth(name, c)
     assert e.kind == kind
@@ -244,7 +247,10 @@ def _check(name, c, e, tol, noise):
             assert e.parameters[k] == pytest.approx(v, rel=tol)
     if noise:
         for k, v in truth.items():
-            assert 0 < e.std[k] and abs(e.parameters[k] - v) <= 3 * e.std[k], (k, e.std[k])
+            bias = abs(clean.parameters[k] - v)
+            assert bias <= 5e-3 * abs(v)
+            assert 0 < e.std[k] and abs(e.parameters[k] - v) <= 3 * e.std[k] + bias, \
+                (k, e.std[k], bias)
     return {k: e.parameters[k] / v - 1 for k, v in truth.items()}
 
 
@@ -258,7 +264,7 @@ def test_one_effect_on_the_family(name, kind):
     _check(name, c, clean.effects[0], 0.03, 0.0)
     assert clean.error_after <= clean.error_before / 30
     d = diagnosis(name, (c,), 0.01, max_effects=2)
-    _check(name, c, d.effects[0], 0.10, 0.01)
+    _check(name, c, d.effects[0], 0.10, 0.01, clean.effects[0])
     assert d.noise == pytest.approx(1e-4, rel=0.05)
     assert d.error_after <= 1.1e-4 + clean.error_after
 
@@ -283,10 +289,12 @@ def test_two_effects_at_once(name):
     """Issue 23: a mass at one node and a dashpot between two others, in one call: both
     found, each with the checks of one effect (3% noise-free, 10% and 3 std at 1%)."""
     cs = (case(name, "mass_change", 1), case(name, "added_damper", 0))
+    clean = None
     for noise, tol in ((0.0, 0.03), (0.01, 0.10)):
         d = diagnosis(name, cs, noise, max_effects=3)
         got = {e.kind: e for e in d.effects}
         assert set(got) >= {"mass_change", "added_damper"}
         for c in cs:
-            _check(name, c, got[c[0]], tol, noise)
+            _check(name, c, got[c[0]], tol, noise, clean and clean[c[0]])
+        clean = got
         assert d.error_after <= (d.error_before / 30 if not noise else 1.1e-4 + 2e-5)

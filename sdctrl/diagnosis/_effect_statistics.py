@@ -10,7 +10,11 @@ evaluated by central differences of the corrected model itself (:func:`apply_eff
 every kind of effect gets the same mechanism.  Nuisance coordinates (the modal vectors of a
 missing mode) are fitted together with the reported sizes; sizes that are functions of the
 coordinates (a resonator's stiffness ``m w^2``, a relative stiffness change) get the
-first-order propagation of the coordinates' covariance.
+first-order propagation of the coordinates' covariance.  Several effects accepted in one
+diagnosis share one Jacobian (:func:`joint_std`): the covariance then accounts for their
+correlation.  The difference quotients are taken as ``Log(H(x+h) / H(x-h)) / 2h`` so that a
+phase crossing the branch cut of the logarithm (near an antiresonance) does not appear as a
+``2 pi / 2h`` slope.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ __all__ = ["diagnose"]
 #: an effect must explain at least this share of the error above the noise level ...
 MIN_GAIN = 0.05
 #: ... and at least this share of the initial error above the noise level
-MIN_SHARE = 0.01
+MIN_SHARE = 0.001
 #: costs below this are round-off: the model reproduces the data
 ROUNDOFF = 1e-24
 #: at most this many steps, whatever ``max_effects``
@@ -191,7 +191,8 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     number of parameters) degrees of freedom, and the Bonferroni bound over the ``M``
     hypotheses of the step (every family's locations, lines or channels together), ``M
     P(chi^2_k > T)``, must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the
-    error above the noise level and 1% of the initial one.  An extra mode found inside the
+    error above the noise level and 0.1% of the initial one (a second effect may be
+    much smaller than the first).  An extra mode found inside the
     band (its peak and half-power points in it) and significant excludes the residual
     flexibility/mass terms of that step: those stand for effects outside the band and would
     otherwise absorb a missing in-band mode.  Physical candidates
