@@ -4,8 +4,9 @@ Each step of :func:`sdctrl.diagnose` fits its candidates to the residual left by
 already accepted, their sizes held.  Two effects whose responses overlap (a mass near a
 dashpot, both shifting and damping the same modes) then share the error between them in the
 order they were found: the first absorbs part of the second.  After each accepted effect the
-sizes of all accepted effects are therefore fitted again together (the first alone too: its
-candidate fit, on a window of lines or a grid, is polished on all the data), by nonlinear least squares
+sizes of all accepted effects are therefore fitted again together (from the second on: a
+lone effect keeps its own fit -- a free mode's, on the lines around it, is not pulled by the
+rest of the band), by nonlinear least squares
 (trust-region reflective, finite-difference Jacobian) on the complex logLS residual (3.12)
 ``r(x) = Log(H(x) / H_d)`` of every line and channel, ``H(x)`` the model with every effect
 applied in turn at the coordinates ``x`` (their sizes, and for an extra mode its frequency,
@@ -130,4 +131,6 @@ def refit(model, props, placed):
         return props, base
     for q in new:
         q["parameters"] = _parameters(q)
+        if q["action"] == "mode":                 # a free mode is located by its frequency
+            q["location"] = q["parameters"]["frequency"]
     return new, corrected

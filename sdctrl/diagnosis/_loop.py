@@ -17,7 +17,7 @@ import numpy as np
 
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
-from sdctrl.diagnosis._apply import DelayedModel
+from sdctrl.diagnosis._apply import DelayedModel, apply_effect
 from sdctrl.diagnosis._candidates import candidate_groups
 from sdctrl.diagnosis._effect_statistics import joint_std
 from sdctrl.diagnosis._global_effects import (
@@ -346,7 +346,11 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
         if not ok:
             times.append(time.perf_counter() - ts)
             break
-        trial, new = refit(model, accepted + [best], placed0)
+        trial = accepted + [best]
+        if accepted:           # a lone effect keeps its own fit (a free mode: on its window)
+            trial, new = refit(model, trial, placed0)
+        else:
+            new = apply_effect(current, best, placed0)
         H = placed0.response(new)
         J_new = cost(H, placed0.Hd)
         times.append(time.perf_counter() - ts)
