@@ -12,7 +12,11 @@ corrected model -> error before/after").
   the model's complex modes;
 - apply.py: corrected models (quasi-static correction modes, re-diagonalisation;
   :class:`DelayedModel`);
-- result.py: :class:`Effect` and :class:`Diagnosis`; loop.py: :func:`diagnose`.
+- joint_fit.py: the accepted effects refitted together after each step;
+  effect_statistics.py: their standard deviations (Cramer-Rao, one joint Jacobian);
+- result.py: :class:`Effect` and :class:`Diagnosis`; loop.py: :func:`diagnose` (an effect
+  accepted only when significant: a Bonferroni chi-square test over the step's hypotheses,
+  residuals.py).
 """
 
 from sdctrl.diagnosis._apply import DelayedModel

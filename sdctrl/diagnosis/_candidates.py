@@ -166,7 +166,10 @@ def candidate_groups(fe, reach=None):
     nd = dof_idx.size
     elems, others = _pairs(fe, reach)
     pairs, betas, n_el = [], [], 0
+    index = set(fe.dofs)
     for i, (a, b) in enumerate(elems + others):
+        if not any(f"{n}.{ax}" in index for n in (a, b) for ax in _AXES):
+            continue                               # both ends clamped: nothing to scan
         v = fe.strut(a, b)[dof_idx, 0]
         if np.any(v):
             pairs.append((a, b))

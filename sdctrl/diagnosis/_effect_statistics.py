@@ -10,7 +10,11 @@ evaluated by central differences of the corrected model itself (:func:`apply_eff
 every kind of effect gets the same mechanism.  Nuisance coordinates (the modal vectors of a
 missing mode) are fitted together with the reported sizes; sizes that are functions of the
 coordinates (a resonator's stiffness ``m w^2``, a relative stiffness change) get the
-first-order propagation of the coordinates' covariance.
+first-order propagation of the coordinates' covariance.  Several effects accepted in one
+diagnosis share one Jacobian (:func:`joint_std`): the covariance then accounts for their
+correlation.  The difference quotients are taken as ``Log(H(x+h) / H(x-h)) / 2h`` so that a
+phase crossing the branch cut of the logarithm (near an antiresonance) does not appear as a
+``2 pi / 2h`` slope.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import copy
 
 import numpy as np
 
-__all__ = ["effect_std"]
+__all__ = ["coordinates", "effect_std", "joint_std"]
 
 #: relative difference step on each coordinate
 STEP = 1e-5
@@ -47,18 +51,51 @@ def effect_std(prop, model, placed, placed0, sigma2) -> dict:
         Like ``prop["parameters"]``: a float per scalar size, an array per matrix; NaN where
         the data do not determine it.
     """
+    return joint_std([prop], model, placed, placed0, sigma2)[0]
+
+
+def joint_std(props, model, placed, placed0, sigma2) -> list:
+    """Standard deviations of the sizes of several effects fitted together.
+
+    The Jacobian is taken with respect to the coordinates of every effect at once (the
+    effects applied in turn to ``model``), so that the covariance (module notes) accounts for
+    the correlation between effects; each effect's sizes come from its own block.
+
+    Parameters
+    ----------
+    props : list of dict
+        The accepted proposals, in the order they are applied.
+    model : model
+        The model they are added to.
+    placed : Placed
+        The data as the effects are applied (undelayed).
+    placed0 : Placed
+        The data the cost is measured on.
+    sigma2 : float
+        Noise level (expected ``|Log(H / H_d)|^2`` of the noise per line and channel).
+
+    Returns
+    -------
+    list of dict
+        One per effect, like its ``parameters``.
+    """
     from sdctrl.diagnosis._apply import apply_effect
 
-    coords = _coordinates(prop)
-    x0 = np.array([c[1] for c in coords], float)
+    coords = [coordinates(p) for p in props]
+    owner = np.concatenate([[i] * len(c) for i, c in enumerate(coords)] + [[]]).astype(int)
+    flat = [c for cs in coords for c in cs]
+    x0 = np.array([c[1] for c in flat], float)
     if x0.size == 0:
-        return {}
+        return [{} for _ in props]
 
-    def log_response(x):
-        p = copy.deepcopy(prop)
-        for (setter, _v, _g), xi in zip(coords, x):
-            setter(p["payload"], xi)
-        return np.log(placed0.response(apply_effect(model, p, placed)))
+    def response(x):
+        m = model
+        for i, p in enumerate(props):
+            q = copy.deepcopy(p)
+            for (setter, _v, _g), xi in zip(coords[i], x[owner == i]):
+                setter(q["payload"], xi)
+            m = apply_effect(m, q, placed)
+        return placed0.response(m)
 
     cols = []
     for i in range(x0.size):
@@ -66,11 +103,15 @@ def effect_std(prop, model, placed, placed0, sigma2) -> dict:
         xp, xm = x0.copy(), x0.copy()
         xp[i] += h
         xm[i] -= h
-        d = (log_response(xp) - log_response(xm)).ravel() / (2 * h)
+        # Log(H+ / H-), not Log H+ - Log H-: no 2 pi jump where the phase crosses the cut
+        d = np.log(response(xp) / response(xm)).ravel() / (2 * h)
         cols.append(np.r_[d.real, d.imag])
-    J = np.array(cols).T
-    cov = _covariance(J, sigma2 / 2.0)
-    return _sizes(prop, coords, x0, cov)
+    cov = _covariance(np.array(cols).T, sigma2 / 2.0)
+    out = []
+    for i, p in enumerate(props):
+        sel = np.flatnonzero(owner == i)
+        out.append(_sizes(p, coords[i], x0[sel], cov[np.ix_(sel, sel)]) if sel.size else {})
+    return out
 
 
 def _covariance(J, var):
@@ -101,7 +142,7 @@ def _set_item(key, idx, pair=False):
     return setter
 
 
-def _coordinates(prop):
+def coordinates(prop):
     """``(setter, value, gradients)`` of each fitted coordinate; ``gradients`` maps a
     reported size to its derivative with respect to the coordinate (scalar sizes)."""
     p, act, par = prop["payload"], prop["action"], prop["parameters"]
@@ -122,9 +163,10 @@ def _coordinates(prop):
         out = [(_set("omega"), p["omega"], {"frequency": 1 / (2 * np.pi)}),
                (_set("zeta"), p["zeta"], {"damping": 1.0})]
         c, b = np.asarray(p["c"], float), np.asarray(p["b"], float)
-        out += [(_set_item("c", (i,)), c[i], {}) for i in range(c.size)]
+        out += [(_set_item("c", (i,)), c[i], {("cphi", (i,)): 1.0}) for i in range(c.size)]
         keep = np.arange(b.size) != int(np.argmax(np.abs(b)))    # c b^T: one scale fixed
-        out += [(_set_item("b", (i,)), b[i], {}) for i in np.flatnonzero(keep)]
+        out += [(_set_item("b", (i,)), b[i], {("phib", (i,)): 1.0})
+                for i in np.flatnonzero(keep)]
         return out
     if act == "gamma":
         out = []

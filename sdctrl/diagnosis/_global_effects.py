@@ -7,7 +7,9 @@
   or all; with an FE model, the FE's own residual flexibility of the actuators with respect
   to the model's shapes (2.21), scaled by one factor;
 - ``missing_mode`` (free): an extra normal mode ``c b^T / (s^2 + 2 zeta w s + w^2)`` (2.15),
-  ``c`` and ``b`` real; for given ``(w, zeta)`` the residue is the weighted linear
+  ``c`` and ``b`` real (its observability ``cphi`` at the data sensors and controllability
+  ``phib`` at the data actuators, displacement per unit force: only ``c b^T`` is determined,
+  the largest entry of ``phib`` being fixed by the fit); for given ``(w, zeta)`` the residue is the weighted linear
   least-squares fit of the relative residual (the linearised logLS), made rank one; ``(w,
   zeta)`` are searched from the peaks of the residual;
 - ``nonproportional_damping``: the coupling terms ``Gamma_ij`` (rad/s) between close modes
@@ -192,8 +194,8 @@ def fit_free_mode(placed, H) -> dict | None:
     Returns
     -------
     dict or None
-        Proposal with ``parameters = {"frequency": Hz, "damping": ratio}``; location the
-        frequency (Hz).
+        Proposal with ``parameters = {"frequency": Hz, "damping": ratio, "cphi": (ns,),
+        "phib": (na,)}`` (module notes); location the frequency (Hz).
     """
     w = placed.omega
     if w.size < 5:
@@ -232,7 +234,8 @@ def fit_free_mode(placed, H) -> dict | None:
         return None           # stuck at a bound: a broadband trend, not a mode (never invented)
     ns, na = X1.shape
     fr = float(wm / (2 * np.pi))
-    return proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm)}, J,
+    return proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm), "cphi": c.copy(),
+                                         "phib": b.copy()}, J,
                     2 + ns + na - 1, w.size, "mode",
                     {"omega": float(wm), "zeta": float(zm), "c": c, "b": b})
 

@@ -1,8 +1,10 @@
 """Closing the loop with measured data: :func:`diagnose`.
 
 Residual -> candidate effects (each a physical hypothesis with few parameters, fitted to the
-data) -> ranking by the extended BIC (:mod:`.residuals`) -> the best effect added to the model
--> the same again on the new residual, until no candidate helps enough.
+data) -> ranking by the extended BIC (:mod:`._residual_map`) -> the best effect accepted only
+when significant (Bonferroni chi-square test, :func:`._residual_map.false_alarm`) -> all
+accepted effects refitted together (:mod:`._joint_fit`) -> the same again on the new
+residual, until no candidate helps enough.
 """
 
 from __future__ import annotations
@@ -17,15 +19,23 @@ from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
 from sdctrl.diagnosis._apply import DelayedModel, apply_effect
 from sdctrl.diagnosis._candidates import candidate_groups
-from sdctrl.diagnosis._effect_statistics import effect_std
+from sdctrl.diagnosis._effect_statistics import joint_std
 from sdctrl.diagnosis._global_effects import (
     fit_delay,
     fit_free_mode,
     fit_nonproportional,
     fit_residual_terms,
 )
+from sdctrl.diagnosis._joint_fit import refit
 from sdctrl.diagnosis._placed_data import place
-from sdctrl.diagnosis._residual_map import complex_residual, cost, ebic_score, noise_level
+from sdctrl.diagnosis._residual_map import (
+    ALPHA,
+    complex_residual,
+    cost,
+    ebic_score,
+    false_alarm,
+    noise_level,
+)
 from sdctrl.diagnosis._result import Diagnosis, Effect
 from sdctrl.diagnosis._candidate_scan import physical_proposals, setup
 
@@ -34,7 +44,7 @@ __all__ = ["diagnose"]
 #: an effect must explain at least this share of the error above the noise level ...
 MIN_GAIN = 0.05
 #: ... and at least this share of the initial error above the noise level
-MIN_SHARE = 0.01
+MIN_SHARE = 0.001
 #: costs below this are round-off: the model reproduces the data
 ROUNDOFF = 1e-24
 #: at most this many steps, whatever ``max_effects``
@@ -155,7 +165,8 @@ def _proposals(inner, placed, H, S, executor, progress):
 
 
 def _summary(p) -> dict:
-    return {k: p[k] for k in ("kind", "location", "parameters", "cost", "k", "m", "score")}
+    return {k: p[k] for k in ("kind", "location", "parameters", "cost", "k", "m", "score",
+                              "false_alarm")}
 
 
 def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | None = None,
@@ -170,7 +181,21 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     mass on a spring along one axis) at any node translation -- ranks them by their error
     reduction penalised by their number of parameters and of hypotheses scanned (extended
     BIC on the complex logLS residual, noise level from its second differences), adds the
-    best to the model and starts again, until no candidate helps enough.  Physical candidates
+    best to the model, refits the sizes of all the effects accepted so far together
+    (:mod:`._joint_fit`) and starts again, until no candidate helps enough.
+
+    Nothing is invented: the best candidate is accepted only when (a) the error it removes
+    exceeds what noise alone would remove by chance in a search over that many candidates --
+    under the null hypothesis (residual = complex Gaussian noise of variance ``sigma^2``,
+    estimated from the data) ``T = 2 N (J - J_e) / sigma^2`` is chi-square with ``k`` (its
+    number of parameters) degrees of freedom, and the Bonferroni bound over the ``M``
+    hypotheses of the step (every family's locations, lines or channels together), ``M
+    P(chi^2_k > T)``, must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the
+    error above the noise level and 0.1% of the initial one (a second effect may be
+    much smaller than the first).  An extra mode found inside the
+    band (its peak and half-power points in it) and significant excludes the residual
+    flexibility/mass terms of that step: those stand for effects outside the band and would
+    otherwise absorb a missing in-band mode.  Physical candidates
     are evaluated by reanalysis (4.17), (5.2): the change is a low-rank feedback on its load
     shape (4.22), completed by its static correction (4.23), evaluated on all lines at once by
     a Woodbury update of the model's complex modes; a vectorised screen ranks them all, the
@@ -249,40 +274,83 @@ def _checked_model(model):
     return model
 
 
+def _hypotheses(props) -> int:
+    """Number of hypotheses searched in a step: the sizes ``m`` of its families (one count
+    per kind of effect and way of fitting it), summed."""
+    fams = {}
+    for p in props:
+        key = (p["kind"], p["action"])
+        fams[key] = max(fams.get(key, 0), p["m"])
+    return int(sum(fams.values()))
+
+
+def _in_band(p, freq) -> bool:
+    """A free extra mode whose peak and half-power points lie inside the band."""
+    if p["action"] != "mode":
+        return False
+    f, z = p["parameters"]["frequency"], p["parameters"]["damping"]
+    return bool(freq[0] <= f * (1 - z) and f * (1 + z) <= freq[-1])
+
+
+def _ranked(props, J, sigma2, N, freq):
+    """Proposals scored (extended BIC), tested (false-alarm probability over all the step's
+    hypotheses) and ranked; residual terms, which stand for effects outside the band, are
+    left out when a significant extra mode lies inside it (they would absorb it)."""
+    M = _hypotheses(props)
+    for p in props:
+        p["score"] = ebic_score(J, p["cost"], sigma2, N, p["k"], p["m"])
+        p["false_alarm"] = false_alarm(J, p["cost"], sigma2, N, p["k"], M)
+    if any(_in_band(p, freq) and p["false_alarm"] < ALPHA for p in props):
+        props = [p for p in props if p["action"] != "residual"]
+    return sorted(props, key=lambda p: -p["score"])
+
+
+def _accepted(best, J, J0, sigma2) -> bool:
+    """Significant (false alarm below ALPHA) and a real share of the error above noise."""
+    gain = J - best["cost"]
+    return bool(best["false_alarm"] < ALPHA and gain >= MIN_GAIN * max(J - sigma2, 0.0)
+                and gain >= MIN_SHARE * max(J0 - sigma2, 0.0))
+
+
+def _step(current, placed0, fe, cand, executor, progress, physical):
+    """Proposals fitted to the residual of the current model."""
+    inner, tau = ((current.model, current.tau) if isinstance(current, DelayedModel)
+                  else (current, 0.0))
+    placed = placed0.undelayed(tau)
+    Hin = placed.response(inner)
+    S = setup(inner, fe, placed, cand) if physical else None
+    return _proposals(inner, placed, Hin, S, executor, progress)
+
+
 def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress, physical):
     """The steps of :func:`diagnose` (arguments checked)."""
     t0 = time.perf_counter()
     inner0 = model.model if isinstance(model, DelayedModel) else model
     placed0 = place(inner0, frf, band)
-    H = placed0.response(model)
-    J0 = J = cost(H, placed0.Hd)
-    sigma2 = float(noise) if noise is not None else noise_level(complex_residual(H, placed0.Hd))
+    J0 = J = cost(placed0.response(model), placed0.Hd)
+    sigma2 = float(noise) if noise is not None else noise_level(
+        complex_residual(placed0.response(model), placed0.Hd))
     cand = candidate_groups(fe, reach) if physical else None
     N = placed0.n_entries
-    current, effects, steps, times = model, [], [], []
-    for _step in range(min(int(max_effects), MAX_STEPS)):
+    current, accepted, errors, steps, times = model, [], [], [], []
+    for _step_ in range(min(int(max_effects), MAX_STEPS)):
         if J <= ROUNDOFF:
             break
         ts = time.perf_counter()
-        inner, tau = ((current.model, current.tau) if isinstance(current, DelayedModel)
-                      else (current, 0.0))
-        placed = placed0.undelayed(tau)
-        Hin = placed.response(inner)
-        S = setup(inner, fe, placed, cand) if physical else None
-        props = _proposals(inner, placed, Hin, S, executor, progress)
-        for p in props:
-            p["score"] = ebic_score(J, p["cost"], sigma2, N, p["k"], p["m"])
-        props.sort(key=lambda p: -p["score"])
+        props = _ranked(_step(current, placed0, fe, cand, executor, progress,
+                              physical), J, sigma2, N, placed0.freq)
         best = props[0]
-        gain = J - best["cost"]
-        ok = (best["score"] > 0 and gain >= MIN_GAIN * max(J - sigma2, 0.0)
-              and gain >= MIN_SHARE * max(J0 - sigma2, 0.0))
-        steps.append({"accepted": bool(ok), "candidates": [_summary(p) for p in
-                                                           props[:N_RUNNERS]]})
+        ok = _accepted(best, J, J0, sigma2)
+        steps.append({"accepted": ok, "candidates": [_summary(p) for p in
+                                                     props[:N_RUNNERS]]})
         if not ok:
             times.append(time.perf_counter() - ts)
             break
-        new = apply_effect(current, best, placed)
+        trial = accepted + [best]
+        if accepted:           # a lone effect keeps its own fit (a free mode: on its window)
+            trial, new = refit(model, trial, placed0)
+        else:
+            new = apply_effect(current, best, placed0)
         H = placed0.response(new)
         J_new = cost(H, placed0.Hd)
         times.append(time.perf_counter() - ts)
@@ -292,14 +360,27 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
                           "stopping", RuntimeWarning, stacklevel=2)
             steps[-1]["accepted"] = False
             break
-        std = effect_std(best, current, placed, placed0, sigma2)
-        effects.append(Effect(best["kind"], best["location"], best["parameters"], J, J_new, std))
-        current, J = new, J_new
+        accepted, current, J = trial, new, J_new
+        errors.append(J_new)
         if noise is None:
             sigma2 = min(sigma2, noise_level(complex_residual(H, placed0.Hd)))
+    effects = _effects(model, accepted, errors, J0, placed0, sigma2)
     info = {"time": time.perf_counter() - t0, "step_times": times, "n_entries": N,
             "physical": physical, "band": (float(placed0.freq[0]), float(placed0.freq[-1]))}
     if cand is not None:
         info["candidates"] = {k: g.size for k, g in cand[1].items()}
         info["n_elements"] = cand[2]
     return Diagnosis(current, effects, J0, J, model, placed0.frf, sigma2, steps, info)
+
+
+def _effects(model, accepted, errors, J0, placed0, sigma2):
+    """The accepted effects with their (jointly refitted) sizes, the errors of their steps
+    and standard deviations from the joint Jacobian."""
+    if not accepted:
+        return []
+    stds = joint_std(accepted, model, placed0, placed0, sigma2)
+    out, before = [], J0
+    for p, after, std in zip(accepted, errors, stds):
+        out.append(Effect(p["kind"], p["location"], p["parameters"], before, after, std))
+        before = after
+    return out

@@ -104,7 +104,9 @@ class Effect:
     parameters : dict
         Fitted sizes in SI units: ``c`` (N s/m), ``dk`` (N/m, along the element's axis;
         ``relative`` = ``dk / (EA/L)`` for an element), ``dm`` (kg), ``tau`` (s),
-        ``frequency`` (Hz) and ``damping`` (ratio) for a missing mode (``mass`` kg and
+        ``frequency`` (Hz) and ``damping`` (ratio) for a missing mode, with a free mode's
+        observability ``cphi`` at the data sensors and controllability ``phib`` at the data
+        actuators (displacement per unit force, only ``cphi phib^T`` determined; ``mass`` kg and
         ``stiffness`` N/m for a resonator), ``E``/``F`` matrices for residual terms,
         ``Gamma_i_j`` (rad/s, modes numbered from 1) for non-proportional damping.
     error_before : float
@@ -186,7 +188,8 @@ class Diagnosis:
     steps : list of dict
         Per step: ``"accepted"`` (bool) and ``"candidates"`` (the best fitted candidates:
         ``kind``, ``location``, ``parameters``, ``cost``, ``k`` parameters, ``m``
-        hypotheses, ``score`` the extended-BIC gain), best first.
+        hypotheses, ``score`` the extended-BIC gain, ``false_alarm`` the probability
+        that noise alone explains its gain in the step's search), best first.
     info : dict
         Counts of candidates, timings, options.
     built : str or None
