@@ -70,7 +70,7 @@ class Survey:
                 f"{self.band[1]:g} Hz, driving point {self.driving_point!r})")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Plan:
     """Sampling and hammer of a survey: ``n`` samples at ``fs`` Hz, pulse width (s)."""
 
@@ -170,16 +170,21 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
                   driving_point=dofs[sens[0]])
 
 
-@lru_cache(maxsize=8)
 def _complex_modes(name: str):
     """All ``2N`` complex modes of the true structure: poles (Im > 0 first, then their
-    conjugates), displacement parts ``psi`` (N, 2N) scaled so ``psi_z^T U psi_z = 1``, DOFs."""
+    conjugates), displacement parts ``psi`` (N, 2N) scaled so ``psi_z^T U psi_z = 1``, DOFs
+    (members built alike -- the truss over two bands -- share them)."""
+    from sdctrl.testbeds._family import structure as by_name
+
+    return _modes_of(by_name(name).builder)
+
+
+@lru_cache(maxsize=8)
+def _modes_of(builder):
     import scipy.linalg as sl
     import scipy.sparse as sp
 
-    from sdctrl.testbeds._family import structure as by_name
-
-    fe = by_name(name).fe()
+    fe = builder()
     M, K, C = (np.asarray(x.toarray() if sp.issparse(x) else x, dtype=float)
                for x in (fe.M, fe.K, fe.C))
     N = M.shape[0]
