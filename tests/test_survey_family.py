@@ -130,8 +130,10 @@ def test_identification_finds_every_mode(name):
     np.testing.assert_allclose(np.abs(cm.poles[j]), np.abs(sv.poles), rtol=2e-4)
     # shape at the hit points: the residue's dominant right factor (R = c psi psi^T b)
     mac = [_mac(np.linalg.svd(cm.residues[i])[2][0], sv.shapes[:, k]) for k, i in enumerate(j)]
-    print("MAC", name, np.round(mac, 4).tolist(), "cost", cm.cost)
-    assert min(mac) > 0.9, mac
+    # measured: every MAC >= 0.9999; fit error (cost) 0.15% truss and truss_high, 0.43%
+    # ladder, 0.89% plate, 0.39% cluster
+    assert min(mac) > 0.99, mac
+    assert cm.cost < 0.02
     # no spurious in-band mode
     assert cm.in_band.sum() == sv.poles.size
 
@@ -145,28 +147,79 @@ def test_damping_corrected_for_the_window(name):
     # the data's poles are the structure's shifted by -1/tau: uncorrected damping
     raw = cm.poles[j] - 1 / cm.exponential_tau
     raw_err = np.abs(-raw.real / np.abs(raw) / zeta - 1)
-    print("DAMP", name, np.round(err, 4).tolist(), np.round(raw_err, 3).tolist())
-    assert err.max() < 0.05, err
+    # measured: corrected within 0.36% (ladder's 86 Hz mode) and 0.08% elsewhere; the
+    # uncorrected damping 3.3% (ladder, 78 Hz, zeta 1.6%) to 142% (truss, 9.5 Hz) off
+    assert err.max() < 0.01, err
     assert np.all(raw_err > 5 * err) and raw_err.max() > 0.25, raw_err
 
 
-@pytest.mark.parametrize("name", FAMILY)
-def test_normal_modes_from_the_single_driving_point(name):
+def _normal_modes(cm, modes=None):
+    """``sd.normal_modes`` on the survey's model, saying it transposed the test when it has
+    more modes than sensors.  The
+    statistics are dropped first: with them ``normal_modes`` of a transposed survey fails
+    (``std['cphi'] must be ... of shape (3, n), got shape (n_hits, n)``: the statistics are
+    not transposed back, sdctrl/identification, reported)."""
     from dataclasses import replace
 
-    sv, cm = _surveyed(name)
-    f = sv.frf.band(*sv.band)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        nm = sd.normal_modes(replace(cm, statistics=None))
+        nm = sd.normal_modes(replace(cm, statistics=None), modes=modes)
     said = " ".join(str(w.message) for w in caught)
-    assert "roving-hammer survey" in said and "transposed test" in said
+    n = cm.n if modes is None else len(modes)
+    assert ("roving-hammer survey" in said and "transposed test" in said) == (n > cm.ns)
+    return nm
+
+
+#: members whose every identified mode is made proper from the single driving point
+PROPER = ("truss", "ladder", "plate")
+
+
+@pytest.mark.parametrize("name", PROPER)
+def test_normal_modes_from_the_single_driving_point(name):
+    sv, cm = _surveyed(name)
+    f = sv.frf.band(*sv.band)
+    nm = _normal_modes(cm)
     assert nm.cphi.shape == (3, cm.n) and nm.phib.shape == (cm.n, len(f.actuators))
     np.testing.assert_allclose(np.sort_complex(nm.poles), np.sort_complex(cm.poles), rtol=1e-6)
     ident = logls(_as_measured(cm, sv), f.H)
     normal = logls(_as_measured(nm, sv), f.H)
-    print("NM", name, cm.n, round(ident, 4), round(normal, 4), round(normal / ident, 3))
-    assert normal <= 3 * ident, (normal, ident)
+    # measured (logLS identified, normal, ratio): truss 0.0551, 0.0576, 1.05; ladder 0.0354,
+    # 0.0419, 1.18; plate 0.106, 0.118, 1.11
+    assert normal <= 1.4 * ident, (normal, ident)
+
+
+@pytest.mark.parametrize("name", sorted(set(FAMILY) - set(PROPER)))
+def test_normal_modes_with_complex_residual_dynamics(name):
+    """Where a mode cannot be made proper from the one driving point, the others become
+    normal modes and it stays a complex mode (residual dynamics).  truss_high: the pole
+    fitted below the band absorbs six modes (9.5-18.6 Hz); made proper with the others it
+    moves the residues by 39% (``properness.residue_error``) and the model's logLS is 92x
+    the identified one's.  cluster: the local resonator (37 Hz) moves at 0.1% of its
+    largest amplitude at the best DOF of the structure, its driving-point residue is noise
+    and every set holding it fails (3.45: mass not positive definite).  Kept as normal
+    modes: the in-band modes that can be made proper one by one."""
+    sv, cm = _surveyed(name)
+    f = sv.frf.band(*sv.band)
+    keep = np.zeros(cm.n, bool)
+    for j in np.flatnonzero(cm.in_band):
+        try:
+            _normal_modes(cm, modes=[j])
+            keep[j] = True
+        except ValueError as exc:                # named, with the thesis's equation
+            assert "(3.45" in str(exc) or "(3.52" in str(exc), exc
+    # measured: truss_high keeps its six in-band modes, cluster all but the resonator
+    assert np.abs(cm.frequency[cm.in_band & ~keep]).tolist() == pytest.approx(
+        {"truss_high": [], "cluster": [36.978]}[name], abs=0.01)
+    nm = _normal_modes(cm, modes=np.flatnonzero(keep))
+    assert nm.properness.residue_error < 0.01                # measured: 0.0017, 0.0035
+    rest = ~keep
+    z = 2j * np.pi * f.freq + 1 / f.exponential_tau
+    residual = frf_array(cm.poles[rest], cm.residues[rest], np.zeros(f.H.shape[1:]), None, z)
+    model = _as_measured(nm, sv) + residual * (z**2)[:, None, None]
+    ident = logls(_as_measured(cm, sv), f.H)
+    mixed = logls(model, f.H)
+    # measured: truss_high 0.00227, 0.00236 (1.04x); cluster 0.580, 0.682 (1.18x)
+    assert mixed <= 1.4 * ident, (mixed, ident)
 
 
 def test_cli_identify_on_a_survey_file(tmp_path, capsys):
