@@ -251,3 +251,25 @@ def test_cli_identify_on_a_survey_file(tmp_path, capsys):
     f = cm.frequency[cm.in_band]
     assert f.size == sv.poles.size
     np.testing.assert_allclose(np.sort(f), np.abs(sv.poles) / (2 * np.pi), rtol=2e-4)
+
+
+def test_survey_bad_input_named():
+    with pytest.raises(ValueError, match="structure must be a TestStructure or one of"):
+        sd.testbeds.survey("bridge")
+    with pytest.raises(ValueError, match="structure must be"):
+        sd.testbeds.survey(["plate"])
+    with pytest.raises(ValueError, match="noise"):
+        sd.testbeds.survey("plate", noise=-0.01)
+    with pytest.raises(ValueError, match="band must hold at least one mode"):
+        sd.testbeds.survey("plate", band=(30.0, 40.0))
+    with pytest.raises(ValueError, match="n_hits"):
+        sd.testbeds.survey("plate", n_hits=500)
+    with pytest.raises(ValueError, match="sensors"):
+        sd.testbeds.survey("plate", sensors=0)
+    with pytest.raises(ValueError, match="lines"):
+        sd.testbeds.survey("plate", lines=4)
+    # the same seed gives the same survey; another seed other noise, the same plan
+    a, b = (sd.testbeds.survey("plate", lines=200, seed=5) for _ in range(2))
+    c = sd.testbeds.survey("plate", lines=200, seed=6)
+    assert np.array_equal(a.frf.H, b.frf.H) and not np.array_equal(a.frf.H, c.frf.H)
+    assert a.frf.actuators == c.frf.actuators and a.frf.sensors == c.frf.sensors

@@ -133,6 +133,12 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
     Survey
         The FRF and the exact in-band poles and complex mode shapes.
 
+    Raises
+    ------
+    ValueError
+        An unknown structure, a band holding no mode, counts or levels out of range; the
+        message names the argument.
+
     Examples
     --------
     >>> import sdctrl as sd
@@ -140,8 +146,11 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
     >>> s.frf.shape, float(s.frf.freq[0]), s.driving_point, s.poles.size
     ((400, 3, 46), 0.31, 'G2_0.z', 5)
     """
-    from sdctrl.testbeds._family import TestStructure, structure as by_name
+    from sdctrl.testbeds._family import TestStructure, family, structure as by_name
 
+    if not isinstance(structure, TestStructure) and structure not in family():
+        raise ValueError(f"structure must be a TestStructure or one of {family()}, got "
+                         f"{structure!r}")
     st = structure if isinstance(structure, TestStructure) else by_name(structure)
     lo, hi = check_band(st.band if band is None else band, "band")
     sensors = check_int(sensors, "sensors", minimum=1, maximum=6)
