@@ -6,11 +6,15 @@
   :func:`structure`): the truss over two bands, a free-free ladder frame on a soft suspension,
   a cantilevered grid with modes just outside both band edges, a hub with a dense cluster of
   blade modes and a local resonator -- each with its FE model, a deliberately wrong FE model,
-  the parameters that correct it and a simulated test (:meth:`TestStructure.frf`).
+  the parameters that correct it and a simulated test (:meth:`TestStructure.frf`);
+- ``_roving``: simulated roving-hammer surveys of those structures (:func:`survey`: fixed
+  accelerometers, many hit points, one driving point, hammer hits through
+  :func:`sdctrl.impact_frf`), with the exact modes they were made from.
 """
 
 from sdctrl.testbeds._family import TestStructure, family, structure
+from sdctrl.testbeds._roving import Survey, survey
 from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND, testbed, testbed_frf
 
-__all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "TestStructure", "family", "structure",
-           "testbed", "testbed_frf"]
+__all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "Survey", "TestStructure", "family",
+           "structure", "survey", "testbed", "testbed_frf"]

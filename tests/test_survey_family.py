@@ -1,0 +1,281 @@
+"""Simulated roving-hammer surveys over the family of test structures (issue 26).
+
+Each member is surveyed as a real modal test is: 3 fixed accelerometers, 40-60 hit points
+spread over the structure, one of them at an accelerometer (the single driving point), three
+hammer hits per point through ``sd.impact_frf`` (force window, exponential window), 1% noise
+that rises near antiresonances and toward the band ends, data from the first line (0 Hz) so
+the suspension modes lie in the data below the band (``sd.testbeds.survey``).  Checked
+against the exact complex modes of each true structure:
+
+- identification finds every in-band mode, MAC > 0.9 to the truth at the hit points;
+- damping corrected for the exponential window within 5% of the truth, the uncorrected one
+  off by more;
+- the normal-mode model from the single driving point reproduces the survey (mean logLS)
+  within 3x the identified model's.
+
+Each member's figures are locked (measured values in comments).
+"""
+
+import warnings
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+import sdctrl as sd
+from sdctrl.identification._complex_modes import frf_array
+from sdctrl.updating import logls
+
+FAMILY = sd.testbeds.family()
+#: lines from 0 to the band's top: 1600 (0.125 Hz lines to 200 Hz, as the issue's survey);
+#: the cluster's four blade modes lie 0.07 Hz apart and need 0.011 Hz lines, as a test
+#: engineer would choose from a pre-test analysis
+LINES = {"cluster": 4000}
+
+
+@lru_cache(maxsize=None)
+def _surveyed(name: str):
+    sv = sd.testbeds.survey(name, noise=0.01, seed=1, lines=LINES.get(name, 1600))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cm = sd.identify(sv.frf, band=sv.band, progress=False)
+    return sv, cm
+
+
+def _match(cm, sv) -> np.ndarray:
+    """Index of the identified pole nearest each true in-band pole."""
+    return np.array([int(np.argmin(np.abs(cm.poles - p))) for p in sv.poles])
+
+
+def _mac(a, b) -> float:
+    return float(np.abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
+
+
+def _as_measured(model, sv) -> np.ndarray:
+    """The model's accelerance in the band as the survey measured it, through the exponential
+    window: ``A(s) = s^2 H(s)`` at ``s = j w + 1/tau`` (the FRF of ``a(t) exp(-t/tau)``), ``H``
+    the displacement FRF of the complex-mode model (3.7) or of the normal-mode model (2.15), both with their
+    ``E + F/s^2`` terms."""
+    f = sv.frf.band(*sv.band)
+    s = 2j * np.pi * f.freq + 1 / f.exponential_tau
+    if isinstance(model, sd.ComplexModeModel):
+        E = np.zeros(f.H.shape[1:]) if model.E is None else model.E
+        H = frf_array(model.poles, model.residues, E, model.F, s)
+    else:
+        n = model.Omega.shape[0]
+        Z = model.Omega[None] + s[:, None, None] * model.Gamma[None] + \
+            (s**2)[:, None, None] * np.eye(n)[None]
+        H = model.cphi[None] @ np.linalg.solve(Z, np.broadcast_to(model.phib, (s.size,
+                                                                              *model.phib.shape)))
+        H = H if model.E is None else H + model.E[None]
+        H = H if model.F is None else H + model.F[None] / (s**2)[:, None, None]
+    return H * (s**2)[:, None, None]
+
+
+def test_survey_is_a_roving_hammer_test():
+    sv = sd.testbeds.survey("plate", noise=0.0, averages=1, lines=400, seed=3)
+    frf, (lo, hi) = sv.frf, sv.band
+    assert frf.quantity == "acceleration" and len(frf.sensors) == 3
+    assert 40 <= len(frf.actuators) <= 80 and len(set(frf.actuators)) == len(frf.actuators)
+    # one hit point at an accelerometer: the single driving point, collocated by its label
+    assert set(frf.sensors) & set(frf.actuators) == {sv.driving_point}
+    assert frf.collocated == ((0, frf.actuators.index(sv.driving_point)),)
+    # data from the first line to 2 fmax: the 2.7 and 6.9 Hz modes below the band are in it
+    assert frf.freq[0] == pytest.approx(hi / 400) and frf.freq[-1] == pytest.approx(2 * hi)
+    assert frf.exponential_tau == pytest.approx((1600 - 1) / (4 * hi) / np.log(100))
+    # noise-free: H1 is the exact windowed accelerance s^2 c (K + s C + s^2 M)^-1 b at
+    # s = j w + 1/tau, solved on the FE matrices (independent of the modal sum over the
+    # 2N complex modes: measured 1.1e-5 of the line's largest entry, the eigensolver's
+    # round-off on the stiff rotational modes)
+    fe = sd.testbeds.structure("plate").fe()
+    M, K, C = (x.toarray() for x in (fe.M, fe.K, fe.C))
+    dofs = list(fe.dofs)
+    ci = [dofs.index(d) for d in frf.sensors]
+    bi = [dofs.index(d) for d in frf.actuators]
+    for k in (10, 140, 333):
+        s = 2j * np.pi * frf.freq[k] + 1 / frf.exponential_tau
+        X = np.linalg.solve(K + s * C + s**2 * M, np.eye(len(dofs))[:, bi])
+        A = s**2 * X[ci]
+        assert np.abs(frf.H[k] - A).max() < 1e-4 * np.abs(A).max()
+    # the truth it carries: every in-band mode, complex shapes at the hit points
+    f = np.abs(sv.poles) / (2 * np.pi)
+    assert np.all((f > lo) & (f < hi)) and sv.shapes.shape == (len(frf.actuators), f.size)
+    np.testing.assert_allclose(f, [26.32, 28.25, 45.26, 49.55, 59.64], atol=0.01)
+
+
+def test_survey_noise_varies_by_line():
+    exact = sd.testbeds.survey("ladder", noise=0.0, seed=2, lines=800)
+    noisy = sd.testbeds.survey("ladder", noise=0.01, seed=2, lines=800)
+    assert noisy.frf.actuators == exact.frf.actuators       # same plan, same pulses
+    H, H0 = noisy.frf.H, exact.frf.H
+    rel = np.abs(H - H0) / np.abs(H0)
+    size = np.abs(H0) / np.median(np.abs(H0), axis=(0, 2), keepdims=True)
+    band = (exact.frf.freq > exact.band[0]) & (exact.frf.freq < exact.band[1])
+    mid = np.median(rel[band][(size[band] > 0.5) & (size[band] < 2)])
+    low = np.median(rel[band][size[band] < 0.05])           # near antiresonances
+    peak = np.median(rel[band][size[band] > 20])            # at resonances
+    top = np.median(rel[exact.frf.freq > 1.8 * exact.band[1]])
+    lo, hi = exact.band
+    f = exact.frf.freq
+    first = np.median(rel[(f > lo) & (f < lo + 0.1 * (hi - lo))])
+    below = np.median(rel[f < lo / 2])                      # small accelerance
+    # measured: 0.55% at the median level (three hits averaged), 10% near antiresonances,
+    # 0.03% at resonances, 1.7% near 2 fmax where the hammer's force falls, 3.0% in the
+    # band's first tenth and 7% below half its lower end
+    assert 0.003 < mid < 0.01
+    assert low > 10 * mid and peak < mid / 5 and top > 2 * mid
+    assert first > 3 * mid and below > 5 * mid
+    assert np.all(noisy.frf.coherence <= 1) and noisy.frf.coherence[band].min() < 0.5
+
+
+@pytest.mark.parametrize("name", FAMILY)
+def test_identification_finds_every_mode(name):
+    sv, cm = _surveyed(name)
+    j = _match(cm, sv)
+    assert len(set(j)) == sv.poles.size and np.all(cm.in_band[j])
+    np.testing.assert_allclose(np.abs(cm.poles[j]), np.abs(sv.poles), rtol=2e-4)
+    # shape at the hit points: the residue's dominant right factor (R = c psi psi^T b)
+    mac = [_mac(np.linalg.svd(cm.residues[i])[2][0], sv.shapes[:, k]) for k, i in enumerate(j)]
+    # measured: every MAC >= 0.9999; fit error (cost) 0.15% truss and truss_high, 0.43%
+    # ladder, 0.89% plate, 0.39% cluster
+    assert min(mac) > 0.99, mac
+    assert cm.cost < 0.02
+    # no spurious in-band mode
+    assert cm.in_band.sum() == sv.poles.size
+
+
+@pytest.mark.parametrize("name", FAMILY)
+def test_damping_corrected_for_the_window(name):
+    sv, cm = _surveyed(name)
+    j = _match(cm, sv)
+    zeta = -sv.poles.real / np.abs(sv.poles)
+    err = np.abs(cm.damping[j] / zeta - 1)
+    # the data's poles are the structure's shifted by -1/tau: uncorrected damping
+    raw = cm.poles[j] - 1 / cm.exponential_tau
+    raw_err = np.abs(-raw.real / np.abs(raw) / zeta - 1)
+    # measured: corrected within 0.36% (ladder's 86 Hz mode) and 0.08% elsewhere; the
+    # uncorrected damping 3.3% (ladder, 78 Hz, zeta 1.6%) to 142% (truss, 9.5 Hz) off
+    assert err.max() < 0.01, err
+    assert np.all(raw_err > 5 * err) and raw_err.max() > 0.25, raw_err
+
+
+def _normal_modes(cm, modes=None):
+    """``sd.normal_modes`` on the survey's model, saying it transposed the test when it has
+    more modes than sensors.  The
+    statistics are dropped first: with them ``normal_modes`` of a transposed survey fails
+    (``std['cphi'] must be ... of shape (3, n), got shape (n_hits, n)``: the statistics are
+    not transposed back, sdctrl/identification, reported)."""
+    from dataclasses import replace
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        nm = sd.normal_modes(replace(cm, statistics=None), modes=modes)
+    said = " ".join(str(w.message) for w in caught)
+    n = cm.n if modes is None else len(modes)
+    assert ("roving-hammer survey" in said and "transposed test" in said) == (n > cm.ns)
+    return nm
+
+
+#: members whose every identified mode is made proper from the single driving point
+PROPER = ("truss", "ladder", "plate")
+
+
+@pytest.mark.parametrize("name", PROPER)
+def test_normal_modes_from_the_single_driving_point(name):
+    sv, cm = _surveyed(name)
+    f = sv.frf.band(*sv.band)
+    nm = _normal_modes(cm)
+    assert nm.cphi.shape == (3, cm.n) and nm.phib.shape == (cm.n, len(f.actuators))
+    np.testing.assert_allclose(np.sort_complex(nm.poles), np.sort_complex(cm.poles), rtol=1e-6)
+    ident = logls(_as_measured(cm, sv), f.H)
+    normal = logls(_as_measured(nm, sv), f.H)
+    # measured (logLS identified, normal, ratio): truss 0.0551, 0.0576, 1.05; ladder 0.0354,
+    # 0.0419, 1.18; plate 0.106, 0.118, 1.11
+    assert normal <= 1.4 * ident, (normal, ident)
+
+
+@pytest.mark.parametrize("name", sorted(set(FAMILY) - set(PROPER)))
+def test_normal_modes_with_complex_residual_dynamics(name):
+    """Where a mode cannot be made proper from the one driving point, the others become
+    normal modes and it stays a complex mode (residual dynamics).  truss_high: the pole
+    fitted below the band absorbs six modes (9.5-18.6 Hz); made proper with the others it
+    moves the residues by 39% (``properness.residue_error``) and the model's logLS is 92x
+    the identified one's.  cluster: the local resonator (37 Hz) moves at 0.1% of its
+    largest amplitude at the best DOF of the structure, its driving-point residue is noise
+    and every set holding it fails (3.45: mass not positive definite).  Kept as normal
+    modes: the in-band modes that can be made proper one by one."""
+    sv, cm = _surveyed(name)
+    f = sv.frf.band(*sv.band)
+    keep = np.zeros(cm.n, bool)
+    for j in np.flatnonzero(cm.in_band):
+        try:
+            _normal_modes(cm, modes=[j])
+            keep[j] = True
+        except ValueError as exc:                # named, with the thesis's equation
+            assert "(3.45" in str(exc) or "(3.52" in str(exc), exc
+    # measured: truss_high keeps its six in-band modes, cluster all but the resonator
+    assert np.abs(cm.frequency[cm.in_band & ~keep]).tolist() == pytest.approx(
+        {"truss_high": [], "cluster": [36.978]}[name], abs=0.01)
+    nm = _normal_modes(cm, modes=np.flatnonzero(keep))
+    assert nm.properness.residue_error < 0.01                # measured: 0.0017, 0.0035
+    rest = ~keep
+    z = 2j * np.pi * f.freq + 1 / f.exponential_tau
+    residual = frf_array(cm.poles[rest], cm.residues[rest], np.zeros(f.H.shape[1:]), None, z)
+    model = _as_measured(nm, sv) + residual * (z**2)[:, None, None]
+    ident = logls(_as_measured(cm, sv), f.H)
+    mixed = logls(model, f.H)
+    # measured: truss_high 0.00227, 0.00236 (1.04x); cluster 0.580, 0.682 (1.18x)
+    assert mixed <= 1.4 * ident, (mixed, ident)
+
+
+def test_cli_identify_on_a_survey_file(tmp_path, capsys):
+    """``sdctrl identify`` on a survey written to UFF: exit 0, no traceback in the report,
+    the normal-modes step's status stated (ok, or failed with its reason)."""
+    import json
+
+    from sdctrl.cli import main
+
+    sv = sd.testbeds.survey("plate", noise=0.01, seed=4, lines=800)
+    path = tmp_path / "survey.uff"
+    sd.write_uff(sv.frf, str(path))
+    out = tmp_path / "out"
+    rc = main(["identify", str(path), "--band", *map(str, sv.band), "--out", str(out),
+               "--quiet"])
+    assert rc == 0
+    assert capsys.readouterr().err == ""
+    report = {ext: (out / f"report.{ext}").read_text(encoding="utf-8") for ext in ("md", "html")}
+    for text in report.values():
+        assert "Traceback" not in text and 'File "' not in text
+    steps = json.loads((out / "summary.json").read_text())["steps"]
+    assert steps["identification"]["status"] == "ok"
+    nm = steps["normal_modes"]
+    assert nm["status"] in ("ok", "failed") and (nm["status"] == "ok" or nm["message"])
+    section = report["md"].split("## Normal modes", 1)[1]
+    assert ("failed" in section) == (nm["status"] == "failed")
+    # the identified model saved next to the report has every in-band mode
+    cm = sd.load(str(out / "identified.npz"))
+    f = cm.frequency[cm.in_band]
+    assert f.size == sv.poles.size
+    np.testing.assert_allclose(np.sort(f), np.abs(sv.poles) / (2 * np.pi), rtol=2e-4)
+
+
+def test_survey_bad_input_named():
+    with pytest.raises(ValueError, match="structure must be a TestStructure or one of"):
+        sd.testbeds.survey("bridge")
+    with pytest.raises(ValueError, match="structure must be"):
+        sd.testbeds.survey(["plate"])
+    with pytest.raises(ValueError, match="noise"):
+        sd.testbeds.survey("plate", noise=-0.01)
+    with pytest.raises(ValueError, match="band must hold at least one mode"):
+        sd.testbeds.survey("plate", band=(30.0, 40.0))
+    with pytest.raises(ValueError, match="n_hits"):
+        sd.testbeds.survey("plate", n_hits=500)
+    with pytest.raises(ValueError, match="sensors"):
+        sd.testbeds.survey("plate", sensors=0)
+    with pytest.raises(ValueError, match="lines"):
+        sd.testbeds.survey("plate", lines=4)
+    # the same seed gives the same survey; another seed other noise, the same plan
+    a, b = (sd.testbeds.survey("plate", lines=200, seed=5) for _ in range(2))
+    c = sd.testbeds.survey("plate", lines=200, seed=6)
+    assert np.array_equal(a.frf.H, b.frf.H) and not np.array_equal(a.frf.H, c.frf.H)
+    assert a.frf.actuators == c.frf.actuators and a.frf.sensors == c.frf.sensors
