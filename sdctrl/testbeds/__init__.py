@@ -7,12 +7,12 @@
   a cantilevered grid with modes just outside both band edges, a hub with a dense cluster of
   blade modes and a local resonator -- each with its FE model, a deliberately wrong FE model,
   the parameters that correct it and a simulated test (:meth:`TestStructure.frf`);
-- ``_lattice``: the scalable member, :func:`lattice` -- a cantilevered lattice plate of bars
+- ``_scalable``: the scalable member, :func:`lattice` -- a cantilevered lattice plate of bars
   of 10^3 to 10^5+ DOFs, for the whole chain at industrial sizes.
 """
 
 from sdctrl.testbeds._family import TestStructure, family, structure
-from sdctrl.testbeds._lattice import LatticeStructure, lattice
+from sdctrl.testbeds._scalable import LatticeStructure, lattice
 from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND, testbed, testbed_frf
 
 __all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "LatticeStructure", "TestStructure", "family",
