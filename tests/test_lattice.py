@@ -3,6 +3,7 @@ small size: its wrong FE model corrected exactly by its parameters, update, hybr
 low-rank D-strut placement against the full re-analysis; serial and executor runs identical.
 """
 
+import pickle
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -42,6 +43,10 @@ def test_lattice_size_io_and_band(lat):
     with pytest.raises(ValueError, match="dofs"):
         sd.testbeds.lattice(10)
     assert "lattice" not in " ".join(sd.testbeds.family())     # the five defaults unchanged
+    assert isinstance(lat, sd.testbeds.TestStructure)
+    back = pickle.loads(pickle.dumps(lat))
+    assert back.band == lat.band and back.sensors == lat.sensors
+    assert np.array_equal(back.fe().K.toarray(), fe.K.toarray())
 
 
 def test_lattice_parameters_correct_the_wrong_model_exactly(lat):

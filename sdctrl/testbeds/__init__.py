@@ -12,8 +12,8 @@
 """
 
 from sdctrl.testbeds._family import TestStructure, family, structure
-from sdctrl.testbeds._scalable import LatticeStructure, lattice
+from sdctrl.testbeds._scalable import lattice
 from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND, testbed, testbed_frf
 
-__all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "LatticeStructure", "TestStructure", "family",
-           "lattice", "structure", "testbed", "testbed_frf"]
+__all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "TestStructure", "family", "lattice",
+           "structure", "testbed", "testbed_frf"]
