@@ -35,7 +35,6 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 import sdctrl as sd  # noqa: E402
-from sdctrl.closedloop._placement import placement_study  # noqa: E402
 
 STEPS = ("build", "test", "modes", "static", "update", "identify", "hybrid", "placement")
 
@@ -77,7 +76,7 @@ def chain(dofs: int, bars: int) -> tuple[int, Clock, dict]:
     h = clk("hybrid", sd.hybrid, up.fe, nm, up.fe.point(list(s.sensors)).T)
     els = list(up.fe.elements)
     cand = els[:: max(1, len(els) // bars)][:bars]
-    st = clk("placement", placement_study, h, up.fe, s.band, kv=300.0, candidates=cand,
+    st = clk("placement", sd.placement_study, h, up.fe, s.band, kv=300.0, candidates=cand,
              progress=False)
     figures = {"update": {k: round(v, 4) for k, v in up.values.items()},
                "truth": s.truth, "hybrid modes": h.n, "bars": len(st.candidates),
