@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sdctrl._lib.parallel import chunked, map_chunks
+from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_band, check_executor, check_int, check_scalar
 
 __all__ = ["Candidate", "PlacementStudy", "placement_study"]
@@ -143,10 +144,19 @@ def _track(p_open: np.ndarray, p_closed: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class _Loop:
-    """What every candidate's evaluation reads (shared by the tasks of an executor)."""
+    """What every candidate's evaluation reads (shared by the tasks of an executor, scattered
+    once on a Dask client).
 
-    model: object
+    ``reduced`` is the model without its shapes (the reduced model every candidate changes
+    by a low-rank term); ``shapes`` (N, n) are read at a strut's few DOFs only; ``static``
+    holds ``(fe, sensor_c, actuator_b)`` of a hybrid model whose struts get their own static
+    correction mode (:meth:`HybridModel.with_feedback`), else None.
+    """
+
+    reduced: object
+    shapes: np.ndarray
     fe: object
+    static: tuple | None
     band: tuple
     out_idx: list
     psd: object
@@ -164,30 +174,82 @@ def _measure(loop, m):
     return rms(m.to_statespace()[loop.out_idx, :], loop.band, loop.psd)
 
 
+def _reduced(model):
+    """The model's reduced part, without its (N, n) shapes: what a candidate changes."""
+    from sdctrl.modal._normal_model import NormalModeModel
+
+    return NormalModeModel(model.Omega, model.Gamma, model.cphi, model.phib, E=model.E,
+                           sensors=model.sensors, actuators=model.actuators,
+                           omega_c=model.omega_c, F=model.F)
+
+
+def _with_strut_static(loop, s, rows):
+    """Reduced model and modal strut ``phi^T s`` with the strut's static correction mode.
+
+    The mode is :func:`~sdctrl.fe._static.consistent_static_modes` of ``s`` against the
+    shapes (4.23)-(4.24), appended with its stiffness and critical damping (2.20), (2.22), as
+    :func:`sdctrl.hybrids._predictions.with_static` does -- on the reduced matrices only:
+    one sparse solve and O(N n) products, never an (N, n) copy of the shapes.
+    """
+    from sdctrl.fe._static import consistent_static_modes
+
+    m = loop.reduced
+    pb = loop.shapes[rows].T @ s[rows]
+    fe, sensor_c, actuator_b = loop.static
+    V, wc2 = consistent_static_modes(fe, s, loop.shapes)
+    k = V.shape[1]
+    if k == 0:
+        return m, pb
+    n = m.n
+    Omega = np.zeros((n + k, n + k))
+    Gamma = np.zeros((n + k, n + k))
+    Omega[:n, :n], Gamma[:n, :n] = m.Omega, m.Gamma
+    Omega[n:, n:] = np.diag(wc2)
+    Gamma[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                       # critical (2.20)
+    m = m.replace(Omega=Omega, Gamma=Gamma, cphi=np.hstack([m.cphi, sensor_c @ V]),
+                  phib=np.vstack([m.phib, V.T @ actuator_b]))
+    return m, np.vstack([pb, V.T @ s])
+
+
+def _closed(loop, bar):
+    """Closed loop of the strut on ``bar`` (5.4) as a low-rank change of the reduced model."""
+    s = loop.fe.strut(*bar)
+    rows = np.flatnonzero(s[:, 0])
+    if loop.static is not None:
+        m, pb = _with_strut_static(loop, s, rows)
+    else:
+        m, pb = loop.reduced, loop.shapes[rows].T @ s[rows]
+    return m.with_feedback(pb, pb.T, kp=loop.kp, kv=loop.kv, modal=True)
+
+
 def _evaluate(bars, loop) -> list:
-    """``(bar, Candidate or None, reason or None)`` of each bar of a chunk (5.4)."""
-    out = []
-    for bar in bars:
-        try:
-            s = loop.fe.strut(*bar)
-        except ValueError as exc:
-            out.append((tuple(bar), None, str(exc)))
-            continue
-        cl = loop.model.with_feedback(s, s.T, kp=loop.kp, kv=loop.kv)
-        p = _track(loop.p_open, cl.poles)
-        freq = np.abs(p) / (2 * np.pi)
-        damp = -p.real / np.abs(p)
-        try:
-            r = _measure(loop, cl)
-        except ValueError as exc:
-            out.append((tuple(bar), None,
-                        f"closed loop with kv={loop.kv:g}, kp={loop.kp:g}: {exc}"))
-            continue
-        with np.errstate(invalid="ignore", divide="ignore"):
-            red = np.where(loop.rms_open > 0, 1 - r / loop.rms_open, 0.0)
-        score = float(np.mean(red)) if loop.criterion == "rms" else float(np.min(damp))
-        out.append((tuple(bar), Candidate(tuple(bar), freq, damp, r, red, score), None))
-    return out
+    """``(bar, Candidate or None, reason or None)`` of each bar of a chunk (5.4).
+
+    Single-threaded BLAS: the reduced matrices are small, and threaded BLAS on them is many
+    times slower on a loaded machine (and oversubscribes an executor's workers).
+    """
+    with single_thread():
+        return [_candidate(bar, loop) for bar in bars]
+
+
+def _candidate(bar, loop) -> tuple:
+    """``(bar, Candidate or None, reason or None)`` of one bar."""
+    try:
+        cl = _closed(loop, bar)
+    except ValueError as exc:
+        return tuple(bar), None, str(exc)
+    p = _track(loop.p_open, cl.poles)
+    freq = np.abs(p) / (2 * np.pi)
+    damp = -p.real / np.abs(p)
+    try:
+        r = _measure(loop, cl)
+    except ValueError as exc:
+        return (tuple(bar), None,
+                f"closed loop with kv={loop.kv:g}, kp={loop.kp:g}: {exc}")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        red = np.where(loop.rms_open > 0, 1 - r / loop.rms_open, 0.0)
+    score = float(np.mean(red)) if loop.criterion == "rms" else float(np.min(damp))
+    return tuple(bar), Candidate(tuple(bar), freq, damp, r, red, score), None
 
 
 def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, psd=1.0,
@@ -200,6 +262,15 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     mode of ``band`` is tracked to its closed-loop pole (frequency, damping), and the RMS
     of ``outputs`` for white noise of PSD ``psd`` on every model input over ``band``
     (:func:`sdctrl.rms`, exact band integral) is compared with the open loop.
+
+    Each candidate is a low-rank change of the reduced model (4.17), (5.4): the strut's
+    modal vector ``phi^T s`` is read from the shapes at the strut's own DOFs (O(n)), the
+    reduced model is closed and its poles and RMS computed -- nothing of size N is copied or
+    multiplied by ``n x n``.  On a hybrid model that carries its FE model
+    (:attr:`HybridModel.static_ready`) each strut also gets its own static correction mode
+    (4.23)-(4.24), as :meth:`HybridModel.with_feedback` does (the local flexibility of the
+    bar, thesis 5.1.2): one sparse solve with the FE model's cached factorisation per
+    candidate.  The results equal ``model.with_feedback(s, s.T, kp, kv)`` per bar.
 
     Parameters
     ----------
@@ -267,8 +338,11 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     p_open = p_all[(f_all >= lo) & (f_all <= hi) & (p_all.imag > 0)]
     if p_open.size == 0:
         raise ValueError(f"band: no mode of the model between {lo:g} and {hi:g} Hz")
-    loop = _Loop(model, fe, (lo, hi), out_idx, psd, kp, kv, criterion, p_open)
-    loop = replace(loop, rms_open=_measure(loop, model))
+    static = ((model.fe, model.sensor_c, model.actuator_b)
+              if getattr(model, "static_ready", False) else None)    # a HybridModel's
+    loop = _Loop(_reduced(model), np.asarray(model.shapes), fe, static, (lo, hi), out_idx,
+                 psd, kp, kv, criterion, p_open)
+    loop = replace(loop, rms_open=_measure(loop, loop.reduced))
     done = map_chunks(_evaluate, chunked(candidates, CHUNK), loop, executor, progress,
                       "D-strut placement", "chunk")
     results = [c for chunk in done for _, c, _ in chunk if c is not None]

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from sdctrl._lib.threads import single_thread
 from sdctrl.report import Document
 from sdctrl.demo._diagnosing import diagnose_retest
 from sdctrl.demo._test_side import identify_test, normal_modes_of
@@ -121,7 +122,19 @@ def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bo
         0 when every step ran, 1 when one failed (the report says which and why); a step
         whose function this version lacks (``sdctrl.diagnose``) is reported as not
         available and is not a failure.
+
+    Notes
+    -----
+    The story runs with single-threaded BLAS: its matrices are small (a 246-DOF model,
+    reduced models of a few dozen modes), where BLAS threads cost more in synchronisation
+    than they gain -- on a loaded machine several times the whole run.
     """
+    with single_thread():
+        return _story(out, noise, seed, quiet, progress)
+
+
+def _story(out, noise, seed, quiet, progress) -> int:
+    """The steps of :func:`demo`, its report and its status."""
     agg_backend()
     log = StepLog(8, quiet)
     log.say(f"sdctrl demo: the whole story on the built-in testbed, report in {out}/")

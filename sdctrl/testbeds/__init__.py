@@ -9,12 +9,15 @@
   the parameters that correct it and a simulated test (:meth:`TestStructure.frf`);
 - ``_roving``: simulated roving-hammer surveys of those structures (:func:`survey`: fixed
   accelerometers, many hit points, one driving point, hammer hits through
-  :func:`sdctrl.impact_frf`), with the exact modes they were made from.
+  :func:`sdctrl.impact_frf`), with the exact modes they were made from;
+- ``_scalable``: the scalable member, :func:`lattice` -- a cantilevered lattice plate of bars
+  of 10^3 to 10^5+ DOFs, for the whole chain at industrial sizes.
 """
 
 from sdctrl.testbeds._family import TestStructure, family, structure
 from sdctrl.testbeds._roving import Survey, survey
+from sdctrl.testbeds._scalable import lattice
 from sdctrl.testbeds._truss import SENSORS, SHAKERS, TESTBED_BAND, testbed, testbed_frf
 
 __all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "Survey", "TestStructure", "family",
-           "structure", "survey", "testbed", "testbed_frf"]
+           "lattice", "structure", "survey", "testbed", "testbed_frf"]

@@ -21,6 +21,11 @@ cluster     a hub with four mistuned blades (four modes within 1.4% near 10.2 Hz
 
 Accuracy tests run over the whole family (``for name in family()``), and each member's
 figures are locked by a test, so that no change trades one structure for another.
+
+A sixth, scalable member is built on demand rather than listed by :func:`family`:
+:func:`sdctrl.testbeds.lattice` (``lattice(dofs)``, a cantilevered lattice plate of bars of
+10^3 to 10^5+ DOFs, :mod:`sdctrl.testbeds._scalable`) takes the whole chain to industrial
+sizes with the same :class:`TestStructure` interface.
 """
 
 from __future__ import annotations

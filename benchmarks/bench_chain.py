@@ -1,0 +1,125 @@
+"""The whole chain at 10^3, 10^4 (and, with ``--big``, 10^5) DOFs on the scalable lattice
+plate of :func:`sdctrl.testbeds.lattice` (issue 27).
+
+Plain script::
+
+    python benchmarks/bench_chain.py [--sizes 1000,10000] [--big] [--bars 1000]
+
+Steps, each timed at every size in one run (wall seconds and the process's CPU seconds:
+on a shared machine the wall time follows the load, the CPU time much less):
+
+``build``      the lattice's true and wrong FE models (assembly; the band from its modes)
+``test``       its simulated test (modal synthesis, 24 x 3 FRFs, 400 lines)
+``modes``      ``wrong.modes(20)``
+``static``     ``wrong.static_correction(b, phi)`` of the 3 shakers
+``update``     ``sd.update`` with the 2 parameters of the structure
+``identify``   ``sd.identify`` + ``sd.normal_modes`` (independent of N)
+``hybrid``     ``sd.hybrid(updated fe, nm, sensor_c)``
+``placement``  ``sd.placement_study`` of a D-strut over ``--bars`` bars of the updated model
+
+The last columns are the growth exponent ``log(t2 / t1) / log(N2 / N1)`` between the two
+largest sizes (asked: <= 1.2) and the per-candidate placement time.  The diagnosis scan is
+not run: its candidate set-up is dense over all node DOFs (see the README's Performance
+section).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+import sdctrl as sd  # noqa: E402
+
+STEPS = ("build", "test", "modes", "static", "update", "identify", "hybrid", "placement")
+
+
+class Clock:
+    """Wall and CPU seconds of named steps."""
+
+    def __init__(self):
+        self.wall, self.cpu = {}, {}
+
+    def __call__(self, name, fn, *args, **kw):
+        w, c = time.perf_counter(), time.process_time()
+        out = fn(*args, **kw)
+        self.wall[name] = time.perf_counter() - w
+        self.cpu[name] = time.process_time() - c
+        return out
+
+
+def chain(dofs: int, bars: int) -> tuple[int, Clock, dict]:
+    """Run the chain on a lattice of about ``dofs`` DOFs; ``(N, clock, figures)``."""
+    clk = Clock()
+
+    def build():
+        s = sd.testbeds.lattice(dofs)
+        return s, s.fe(), s.wrong()
+
+    s, fe, wrong = clk("build", build)
+    frf = clk("test", s.frf, n=400)
+    freq, phi = clk("modes", wrong.modes, 20)
+    b = wrong.point(list(s.shakers))
+    clk("static", wrong.static_correction, b, phi)
+    up = clk("update", sd.update, wrong, frf, s.parameters())
+
+    def ident():
+        cm = sd.identify(frf)
+        return sd.normal_modes(cm, frf.collocated)
+
+    nm = clk("identify", ident)
+    h = clk("hybrid", sd.hybrid, up.fe, nm, up.fe.point(list(s.sensors)).T)
+    els = list(up.fe.elements)
+    cand = els[:: max(1, len(els) // bars)][:bars]
+    st = clk("placement", sd.placement_study, h, up.fe, s.band, kv=300.0, candidates=cand,
+             progress=False)
+    figures = {"update": {k: round(v, 4) for k, v in up.values.items()},
+               "truth": s.truth, "hybrid modes": h.n, "bars": len(st.candidates),
+               "best bar": st.best.bar}
+    return fe.N, clk, figures
+
+
+def table(runs) -> str:
+    """Markdown table: wall (CPU) seconds per step and size, growth exponent."""
+    sizes = [n for n, _, _ in runs]
+    head = "| step | " + " | ".join(f"N = {n:,}" for n in sizes)
+    head += " | growth exponent |\n|---|" + "---:|" * (len(sizes) + 1) + "\n"
+    rows = []
+    for step in STEPS:
+        cells = [f"{c.wall[step]:.2f} s ({c.cpu[step]:.2f})" for _, c, _ in runs]
+        g = ""
+        if len(runs) > 1:
+            (n1, c1, _), (n2, c2, _) = runs[-2], runs[-1]
+            g = f"{np.log(c2.cpu[step] / c1.cpu[step]) / np.log(n2 / n1):.2f}"
+        rows.append(f"| {step} | " + " | ".join(cells) + f" | {g} |")
+    per = [f"{1e3 * c.wall['placement'] / f['bars']:.0f} ms ({1e3 * c.cpu['placement'] / f['bars']:.0f})"
+           for _, c, f in runs]
+    rows.append("| placement per bar | " + " | ".join(per) + " | |")
+    return head + "\n".join(rows)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="1000,10000")
+    ap.add_argument("--big", action="store_true", help="add the 10^5-DOF run (minutes)")
+    ap.add_argument("--bars", type=int, default=1000)
+    a = ap.parse_args(argv)
+    sizes = [int(x) for x in a.sizes.split(",")] + ([100_000] if a.big else [])
+    runs = []
+    for n in sizes:
+        N, clk, fig = chain(n, a.bars)
+        runs.append((N, clk, fig))
+        print(f"N = {N:,}: " + ", ".join(f"{k} {clk.wall[k]:.1f} s" for k in STEPS)
+              + f"; {fig}", flush=True)
+    print("\nwall seconds (CPU seconds of the process); growth exponent of the CPU time "
+          "between the two largest sizes\n")
+    print(table(runs))
+
+
+if __name__ == "__main__":
+    main()
