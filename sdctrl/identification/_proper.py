@@ -32,6 +32,8 @@ from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
 from sdctrl.identification._mode_split import OUT_OF_BAND, residual_block, split_modes
+from sdctrl.identification._proper_terms import (asymptotic_terms, model_residues,
+                                                  phib_from_residues, pole_error)
 
 __all__ = ["Properness", "normal_modes", "scaled_modes"]
 
@@ -352,18 +354,18 @@ def _transform_scaled(cm, sel, pairs, tol, maxiter, residual=()):
         cphi = cT @ phi
         # complex modes of the normal-mode model (mu = I): Psi = phi^-1 psi~ = phi^T M psi~
         Psi = phi.T @ mats.M_T @ psi_p
-        phib = _phib_from_residues(R, cT @ psi_p, Psi)
-    (E, F), sizes = _asymptotic(cm.E, cm.F, lam, R)
+        phib = phib_from_residues(R, cT @ psi_p, Psi)
+    (E, F), sizes = asymptotic_terms(cm.E, cm.F, lam, R)
     nm = NormalModeModel(np.diag(w2), Gamma, cphi, phib, E=E, sensors=cm.sensors,
                          actuators=cm.actuators, F=F)
     # --- checks on the result ------------------------------------------------------------
-    pole_err = _pole_error(nm.poles, lam)
+    pole_err = pole_error(nm.poles, lam)
     if pole_err > 1e-6:
         warnings.warn(f"normal_modes: poles of the normal-mode model depart from the "
                       f"identified ones by {pole_err:.2e} (relative)", RuntimeWarning,
                       stacklevel=4)
     left = np.setdiff1d(np.arange(cm.n), np.union1d(sel, np.asarray(residual, int)))
-    Rn = _residues(cphi, Psi, phib)
+    Rn = model_residues(cphi, Psi, phib)
     record = Properness(
         collocated=tuple(pairs), cpsi=cpsi, psib=psib, c_T=cT, sensor_eigenvalues=sensor_ev,
         psi_proper=psi_p, **vars(corr), **vars(mats), pole_error=pole_err,
@@ -459,26 +461,6 @@ def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, n
     return cpsi, psib
 
 
-def _asymptotic(E, F, lam, R, rtol: float = 1e-10):
-    """``E`` and ``F`` of the complex-mode model, None when negligible (round-off of a fit),
-    and their relative sizes (``E_relative_size``, ``F_relative_size``).
-
-    ``E`` is compared with the off-resonance flexibility scale of the modes,
-    ``max_j max|R_j| / |lambda_j|``, and ``F`` through ``F / w^2`` at the lowest pole; a
-    negligible ``F`` would otherwise add needless rigid-body states (2.24) to the
-    state-space form.
-    """
-    ref = max(float(np.max(np.abs(R).max(axis=(1, 2)) / np.abs(lam))), 1e-300)
-    wmin = float(np.abs(lam).min())
-    out, sizes = [], {}
-    for name, X, scale in (("E", E, 1.0), ("F", F, wmin**-2)):
-        size = float(np.abs(X).max()) * scale if X is not None and np.size(X) else 0.0
-        keep = size > rtol * ref
-        sizes[f"{name}_relative_size"] = size / ref
-        out.append(np.array(X, float) if keep else None)
-    return out, sizes
-
-
 def _mode_selection(modes, n: int) -> np.ndarray:
     """Validated integer indices of the selected modes (``modes`` indices or boolean mask)."""
     try:
@@ -500,30 +482,3 @@ def _mode_selection(modes, n: int) -> np.ndarray:
     if idx.size == 0:
         raise ValueError("modes selects no mode")
     return idx
-
-
-def _phib_from_residues(R: np.ndarray, cpsi_p: np.ndarray, Psi: np.ndarray) -> np.ndarray:
-    """Real ``phib`` minimising ``sum_j ||R_j - cpsi_j Psi_j^T phib||^2`` (linear LS)."""
-    n, ns, na = R.shape
-    D = np.einsum("ij,kj->jik", cpsi_p, Psi).reshape(n * ns, Psi.shape[0])
-    rhs = R.reshape(n * ns, na)
-    A = np.vstack([D.real, D.imag])
-    b = np.vstack([rhs.real, rhs.imag])
-    return np.linalg.lstsq(A, b, rcond=None)[0]
-
-
-def _residues(cphi: np.ndarray, Psi: np.ndarray, phib: np.ndarray) -> np.ndarray:
-    """Residues ``cphi Psi_j Psi_j^T phib`` of a normal-mode model, shape (n, ns, na)."""
-    return np.einsum("ij,jk->jik", cphi @ Psi, Psi.T @ phib)
-
-
-def _pole_error(p_model: np.ndarray, p_id: np.ndarray) -> float:
-    """Max relative distance of each identified pole to the model's matching pole."""
-    from scipy.optimize import linear_sum_assignment
-
-    p_model = p_model[p_model.imag > 0]
-    if p_model.size != p_id.size:
-        return float("inf")
-    cost = np.abs(p_id[:, None] - p_model[None, :]) / np.abs(p_id)[:, None]
-    r, c = linear_sum_assignment(cost)
-    return float(cost[r, c].max()) if r.size else 0.0
