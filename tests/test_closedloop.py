@@ -325,6 +325,10 @@ def test_rms_lightly_damped_mode_beside_a_stiff_overdamped_pole():
     band = (5.0, 20.0)
     got = rms(G, band)[0]
     assert got == pytest.approx(_quad_rms(G, band, np.ones(1), points=(10.0,))[0], rel=1e-5)
+    # a rigid-body pole at 0 Hz beside a pole at -1e9 rad/s lies outside the band, not in it
+    rigid = control.ss(control.tf([2.0], [1.0, 0.0, 0.0]))
+    Gr = control.parallel(rigid, control.ss(control.tf([1e9], [1.0, 1e9])))
+    assert rms(Gr, band)[0] == pytest.approx(_quad_rms(Gr, band, np.ones(1))[0], rel=1e-5)
     # an undamped mode in the same system is still refused
     undamped = control.ss(control.tf([1.0], [1.0, 0.0, w0 ** 2]))
     with pytest.raises(ValueError, match=r"undamped poles .*\[10.\] Hz"):
