@@ -414,3 +414,20 @@ def test_unreadable_path_is_an_oserror_naming_it(tmp_path, monkeypatch):
     monkeypatch.setattr(os, "open", denied)
     with pytest.raises(PermissionError, match="secret.uff"):
         sd.read_uff(path)
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_uff_round_trip_keeps_the_exponential_window(tmp_path, binary):
+    """Issue 26: an impact test's exponential window travels through UFF (ID line 3), so that
+    identify corrects the damping of a file as of the FRF it was written from."""
+    f = np.linspace(1.0, 10.0, 50)
+    H = np.ones((50, 2, 1)) * (1 + 1j)
+    frf = sd.FRF(f, H, sensors=["a.x", "b.x"], actuators=["a.x"], exponential_tau=0.123)
+    path = tmp_path / "hits.uff"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                    # ASCII: single-precision axis
+        sd.write_uff(frf, path, binary=binary)
+    assert sd.read_uff(path).exponential_tau == 0.123
+    plain = sd.FRF(f, H, sensors=["a.x", "b.x"], actuators=["a.x"])
+    sd.write_uff(plain, tmp_path / "plain.uff", binary=True)
+    assert sd.read_uff(tmp_path / "plain.uff").exponential_tau is None

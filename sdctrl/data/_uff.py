@@ -59,6 +59,8 @@ _ID_PREFIX = "sdctrl:"
 _PAIR_RE = re.compile(r"^sdctrl:(\d{1,9}),(\d{1,9}) (\d{1,9})x(\d{1,9}) coh=([01]) col=(\d{1,9})$")
 _HEX = r"([-+]?0x[0-9a-f]+(?:\.[0-9a-f]*)?p[-+]?\d+)"
 _AXIS_RE = re.compile(rf"^sdctrl:axis={_HEX},{_HEX}$")
+#: ID line 3: the quantity and, for an impact test, the exponential window's time constant
+_TAU_RE = re.compile(rf" tau={_HEX}$")
 _LINE = 80
 
 
@@ -155,6 +157,8 @@ def _records(frf: FRF, binary: bool) -> list[dict]:
     for k, pair in enumerate(frf.collocated):
         rank.setdefault(pair, k + 1)
     coh = int(frf.coherence is not None)
+    id3 = f"quantity={frf.quantity}" + ("" if frf.exponential_tau is None
+                                         else f" tau={float(frf.exponential_tau).hex()}")
     sets = []
     for a in range(na):
         ref_node, ref_dir = _node_dir(frf.actuators[a], 1_000_000 + a + 1)
@@ -163,7 +167,7 @@ def _records(frf: FRF, binary: bool) -> list[dict]:
             id4 = f"{_ID_PREFIX}{s},{a} {ns}x{na} coh={coh} col={rank.get((s, a), 0)}"
             common = dict(binary=int(bool(binary)), id1="sdctrl FRF",
                           id2=_id2(frf.sensors[s], frf.actuators[a]),
-                          id3=f"quantity={frf.quantity}", id4=id4, id5=id5, ver_num=0,
+                          id3=id3, id4=id4, id5=id5, ver_num=0,
                           load_case_id=0, rsp_ent_name="NONE", rsp_node=rsp_node,
                           rsp_dir=rsp_dir, ref_ent_name="NONE", ref_node=ref_node,
                           ref_dir=ref_dir, abscissa_spec_data_type=18,
@@ -296,7 +300,7 @@ def _checked(d: dict, k: int, path: str) -> dict:
                "even": int(d.get("abscissa_spacing", 0)) == 1,
                "code": int(d.get("ordinate_spec_data_type", 0)),
                "units": str(d.get("ordinate_axis_units_lab", "NONE")).strip(),
-               **{f"id{i}": str(d.get(f"id{i}", "")).strip() for i in (2, 4, 5)}}
+               **{f"id{i}": str(d.get(f"id{i}", "")).strip() for i in (2, 3, 4, 5)}}
     except (KeyError, TypeError, ValueError, OverflowError) as exc:
         raise ValueError(f"{where}: malformed header ({type(exc).__name__}: {exc})") from None
     if y.dtype.kind not in "fc" or not (npts == x.size == y.size) or npts < 1:
@@ -460,9 +464,21 @@ def read_uff(path) -> FRF:
         coh = None if coh is None else coh[keep]
     try:
         return FRF(x0, H, quantity=quantity, sensors=sensors, actuators=actuators,
-                   collocated=col, coherence=coh, units=units)
+                   collocated=col, coherence=coh, units=units, exponential_tau=_tau(frfs, path))
     except (ValueError, TypeError) as exc:
         raise ValueError(f"file {path!r}: {exc}") from exc
+
+
+def _tau(frfs, path) -> float | None:
+    """The exponential window's time constant written in ID line 3 (one for all records)."""
+    taus = set()
+    for r in frfs:
+        m = _TAU_RE.search(r["id3"])
+        taus.add(None if m is None else float.fromhex(m.group(1)))
+    if len(taus) > 1:
+        raise ValueError(f"file {path!r}: records disagree on the exponential window (ID line "
+                         f"3: {sorted(taus, key=str)})")
+    return taus.pop()
 
 
 def _quantity(frfs, path) -> tuple[str, str | None]:
