@@ -233,6 +233,8 @@ def _instance(name):
         "Document": document, "Section": lambda: document().sections[0],
         "IdentificationWarning": lambda: CLASSES["IdentificationWarning"]("poles moved"),
         "StorageWarning": lambda: CLASSES["StorageWarning"]("old file"),
+        "Survey": lambda: sd.testbeds.survey("plate", noise=0.01, seed=1, lines=200,
+                                             averages=1),
         "ImpactWarning": lambda: CLASSES["ImpactWarning"]("double hit in hit 2"),
         "TestStructure": lambda: sd.testbeds.structure("plate"),
         "ResidualDynamics": lambda: normal().residual or CLASSES["ResidualDynamics"](

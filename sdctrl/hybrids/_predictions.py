@@ -68,8 +68,9 @@ class HybridModel(NormalModeModel):
         Mode shapes on the FE DOFs.
     dofs : sequence of str, optional
         FE DOF labels of the rows of ``shapes``.
-    omega_c, F, properness, transformation, n_static
-        As for :class:`~sdctrl.NormalModeModel` (``n_static``: the modes of kind ``"static"``).
+    omega_c, F, properness, transformation, n_static, residual, omega_f
+        As for :class:`~sdctrl.NormalModeModel` (``n_static``: the modes of kind ``"static"``;
+        ``residual``: None, a hybrid carries no residual dynamics of its own).
     std : dict, optional
         One standard deviation of each entry of ``Omega``, ``Gamma``, ``cphi``, ``phib``.
     fe : FEModel, optional
