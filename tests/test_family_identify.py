@@ -1,0 +1,50 @@
+"""Identification over the family of test structures (issue 22), locked per member and noise
+level so that no change trades one structure for another: the number of in-band modes found
+against the true structure's, and the mean logLS of the identified model against the exact
+(noise-free) response.  The issue's targets (within 2x the noise floor; noise-free <= 0.01)
+are asserted where met; the gaps are the open identification part of issue 22 (modes just
+outside the band on truss_high and the ladder, the cluster's close blade modes).
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import sdctrl as sd
+from sdctrl.updating import logls
+
+#: (in-band modes found, logLS vs the exact data) measured on main (seed 1, 400 lines)
+MEASURED = {
+    ("truss", 0.0): (12, 0.0043), ("truss", 0.01): (12, 0.0056),
+    ("truss_high", 0.0): (6, 0.2422), ("truss_high", 0.01): (6, 0.2392),
+    ("ladder", 0.0): (12, 0.0371), ("ladder", 0.01): (12, 0.0371),
+    ("plate", 0.0): (5, 0.0007), ("plate", 0.01): (5, 0.1015),
+    ("cluster", 0.0): (3, 1.2651), ("cluster", 0.01): (1, 1.6672),
+}
+#: members meeting the noise-free target (<= 0.01)
+NOISE_FREE_OK = {"truss", "plate"}
+
+
+def _true_in_band(st) -> int:
+    f, _ = st.fe().modes(40)
+    return int(np.sum((f > st.band[0]) & (f < st.band[1])))
+
+
+@pytest.mark.parametrize("name,noise", sorted(MEASURED))
+def test_identification_locked_per_member(name, noise):
+    st = sd.testbeds.structure(name)
+    exact = st.frf(n=400)
+    frf = st.frf(n=400, noise=noise, seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cm = sd.identify(frf, progress=False)
+    err = logls(cm.frf(frf.freq, quantity=frf.quantity).H, exact)
+    found, ref = MEASURED[name, noise]
+    print(f"\n{name} {noise}: {int(cm.in_band.sum())} in-band modes (true "
+          f"{_true_in_band(st)}), logLS {err:.4g}")
+    assert int(cm.in_band.sum()) >= found
+    assert int(cm.in_band.sum()) <= _true_in_band(st)          # no spurious in-band mode
+    assert err <= 1.5 * ref + 1e-4
+    if noise == 0.0 and name in NOISE_FREE_OK:
+        assert err <= 0.01
