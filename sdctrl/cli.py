@@ -47,7 +47,8 @@ modes table, complex residues; the normal modes and their full damping matrix wh
 file declares collocated sensor/actuator pairs), report.md, summary.json and the models
 identified.npz and normal_modes.npz (read back with sdctrl.load). normal_modes.npz holds
 the modes of the band (sd.normal_modes(cm, modes=cm.in_band), for the table); to predict
-or build a hybrid, use sd.normal_modes(cm) on identified.npz (every pole).
+or build a hybrid, use sd.normal_modes(cm) on identified.npz (the default: the band's poles
+as normal modes, the others kept as identified residual dynamics).
 
 DATA is a UFF file of FRFs (dataset 58, .uff or .unv) or an FRF saved with sdctrl.save
 (.npz)."""

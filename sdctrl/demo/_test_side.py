@@ -300,8 +300,9 @@ class NormalModes:
             f"`nm.to_statespace('acceleration')` has {2 * nm.n} states, outputs named after the "
             "sensors and inputs after the shakers plus `_u`. `modes=cm.in_band` keeps the "
             "modes of the band alone, for this table and its comparisons; a model that "
-            "predicts (a hybrid, control near the band edges) uses the default, every pole: "
-            "`sd.normal_modes(cm)`.")
+            "predicts (a hybrid, control near the band edges) uses the default, "
+            "`sd.normal_modes(cm)`: the band's poles as normal modes, the poles outside it "
+            "kept as identified residual dynamics (`nm.residual`).")
         s.key_numbers(self.checks())
         if self.test is not None:
             s.paragraph(

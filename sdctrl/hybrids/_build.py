@@ -59,8 +59,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     """Hybrid experimental/analytical normal-mode model, eq. (5.1).
 
     Built from an identified normal-mode model ``nm`` (as returned by
-    :func:`sdctrl.normal_modes` with its default: every identified pole, in-band or not)
-    and an FE model ``fe``:
+    :func:`sdctrl.normal_modes` with its default: the band's poles as normal modes, the
+    others as identified residual dynamics ``nm.residual``, which the hybrid does not carry:
+    its appended FE modes and residual terms, fitted to ``nm``'s whole response at the
+    tested I/O, stand for them) and an FE model ``fe``:
 
     - measured modes: the identified ``Omega`` (frequencies) and ``Gamma`` (full damping
       matrix, non-proportional terms kept), shapes expanded onto all FE DOFs (4.7).  By
@@ -262,8 +264,8 @@ def _warn_left_out(nm) -> None:
         warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
                       f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
                       "band edges is lost and only the FE model stands for them; build nm "
-                      "with sd.normal_modes(cm) (its default, every pole): hybrid keeps the "
-                      "out-of-band modes that pair with the FE and absorbs the others",
+                      "with sd.normal_modes(cm) (its default keeps the poles outside the band "
+                      "as residual dynamics) and let the FE modes stand for them",
                       stacklevel=3)
 
 
