@@ -14,6 +14,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from sdctrl.report import Check, modes_table
+from sdctrl.testbeds._measurement_noise import relative_noise
 
 __all__ = ["SimulatedTest", "exact_poles", "simulate_test", "simulated_testbed_test"]
 
@@ -85,10 +86,7 @@ def simulate_test(fe, freq, noise: float, seed, sensors, shakers, fmax: float):
                                  static_damping="projected")
     freq = np.asarray(freq, dtype=float)
     H = model.frf(freq, "acceleration").H
-    if noise > 0:
-        rng = np.random.default_rng(seed)
-        e = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
-        H = H * (1 + noise * e)
+    H = relative_noise(H, noise, seed)
     return FRF(freq, H, "acceleration", sensors=list(sensors), actuators=list(shakers),
                collocated=[(i, i) for i in range(len(shakers))])
 

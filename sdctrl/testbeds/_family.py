@@ -37,6 +37,7 @@ from functools import lru_cache
 import numpy as np
 
 from sdctrl._lib.validate import check_band, check_int, check_quantity, check_scalar, check_seed
+from sdctrl.testbeds._measurement_noise import relative_noise
 from sdctrl.testbeds import _structures as st
 from sdctrl.testbeds._truss import SENSORS, SHAKERS, testbed, testbed_frf
 
@@ -151,11 +152,8 @@ class TestStructure:
         if noise > 0:
             from sdctrl.data import FRF
 
-            rng = np.random.default_rng(seed)
-            H = frf.H
-            e = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
-            frf = FRF(frf.freq, H * (1 + noise * e), quantity=q, sensors=frf.sensors,
-                      actuators=frf.actuators, collocated=frf.collocated)
+            frf = FRF(frf.freq, relative_noise(frf.H, noise, seed), quantity=q,
+                      sensors=frf.sensors, actuators=frf.actuators, collocated=frf.collocated)
         return frf
 
 

@@ -20,6 +20,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from sdctrl._lib.validate import check_band, check_int, check_quantity, check_scalar, check_seed
+from sdctrl.testbeds._measurement_noise import relative_noise
 from sdctrl.testbeds._family import TestStructure
 
 __all__ = ["LatticeStructure", "lattice"]
@@ -182,10 +183,7 @@ class LatticeStructure(TestStructure):
         noise = check_scalar(noise, "noise", nonneg=True)
         seed = check_seed(seed, "seed")
         H = self._synthesis.frf(np.linspace(lo, hi, n), q).H
-        if noise > 0:
-            rng = np.random.default_rng(seed)
-            e = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
-            H = H * (1 + noise * e)
+        H = relative_noise(H, noise, seed)
         return FRF(np.linspace(lo, hi, n), H, quantity=q, sensors=self.sensors,
                    actuators=self.shakers, collocated=[(i, i) for i in range(len(self.shakers))])
 

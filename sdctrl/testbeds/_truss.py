@@ -15,6 +15,7 @@ from functools import lru_cache
 import numpy as np
 
 from sdctrl._lib.validate import check_band, check_int, check_quantity, check_scalar, check_seed
+from sdctrl.testbeds._measurement_noise import relative_noise
 
 __all__ = ["SENSORS", "SHAKERS", "TESTBED_BAND", "testbed", "testbed_frf"]
 
@@ -296,10 +297,7 @@ def testbed_frf(quantity: str = "acceleration", band=TESTBED_BAND, n: int = 1000
         H = _modal().frf(freq, q).H
     except ValueError as exc:           # the only input left to blame is the band
         raise ValueError(f"band ({lo:g}, {hi:g}) Hz: {exc}") from None
-    if noise > 0:
-        rng = np.random.default_rng(seed)
-        e = (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
-        H = H * (1 + noise * e)
+    H = relative_noise(H, noise, seed)
     col = [(i, i) for i in range(len(SHAKERS))]
     return FRF(freq, H, quantity=q, sensors=SENSORS, actuators=SHAKERS, collocated=col)
 
