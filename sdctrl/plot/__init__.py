@@ -7,7 +7,8 @@ only when a figure is drawn; a headless Linux session uses the ``Agg`` backend.
 - :func:`bode` -- overlays of FRFs, models and StateSpace objects, channels by label;
 - :func:`envelope` -- min/max band of ``|H|`` of an uncertain model or of samples;
 - :func:`cmif` -- indicator function (singular values of ``H`` per frequency);
-- :func:`stabilisation` -- poles per model order / iteration over the CMIF;
+- :func:`stabilisation` -- poles per model order / iteration over the CMIF, the identified
+  model's modes with their frequency interval and damping (3.4);
 - :func:`mac` -- MAC matrix heat map (4.9);
 - :func:`complex_residues` -- residues of a mode in the complex plane (Figure 3.5);
 - :func:`mode_shapes` -- mode shapes on the FE geometry (wireframe, 3-D);

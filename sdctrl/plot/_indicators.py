@@ -1,4 +1,5 @@
-"""Identification figures: indicator function (CMIF) and stabilisation diagram (chapter III)."""
+"""Identification figures: indicator function (CMIF) and stabilisation diagram (chapter III),
+the identified model's modes drawn on the diagram with their intervals (3.4, issue 24)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import numpy as np
 from sdctrl._lib.validate import as_array, check_band, check_int, check_scalar
 from sdctrl.plot import _channels as ch
 from sdctrl.plot._figure import FREQ_LABEL, db, db_label, figure, finish, log_x_if_wide
+from sdctrl.plot._statistics_plot import level_quantile
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -197,7 +199,8 @@ def _shapes(poles, shapes, P):
 def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None = None,
                   title: str | None = None, *, shapes=None, freq_tol: float = 0.01,
                   damping_tol: float = 0.05, mac_min: float = 0.95, background: str = "cmif",
-                  band=None, ylabel: str = "model order") -> Figure:
+                  band=None, ylabel: str = "model order", model=None,
+                  level: float = 0.95) -> Figure:
     """Stabilisation diagram: poles of each model order (or iteration) over the CMIF.
 
     Each pole is drawn at its frequency ``|p| / 2 pi`` (Hz) and its order, with a marker
@@ -232,14 +235,26 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
         Frequency range shown (Hz); default the FRF's, else the poles' range.
     ylabel : str
         Label of the order axis (e.g. ``"iteration"``).
+    model : ComplexModeModel, optional
+        The identified model: its modes (Im > 0, in the band shown) are drawn on a row above
+        the last order, each with its frequency interval ``f +- z sigma_f`` as a horizontal
+        error bar and its damping ``zeta +- z sigma_zeta`` (%) written over it
+        (``frequency_std``, ``damping_std``, (3.56)-(3.59); "n/a" where the data do not
+        determine them).
+    level : float
+        Probability of those intervals, in (0, 1): ``z`` is the normal quantile
+        (1.96 at 0.95).
 
     Returns
     -------
     matplotlib.figure.Figure
         Two axes sharing the frequency axis: the background (``fig.axes[0]``, right
         ticks) and the poles (``fig.axes[1]``, one marker collection per class present).
+        With ``model``: ``fig.axes[1].containers[0]`` is the modes' error bar (label
+        ``"identified (95% interval)"``), and one text per mode holds its damping.
     """
     flags = stabilisation_flags(poles, shapes, freq_tol, damping_tol, mac_min)
+    z = None if model is None else _model_level(model, level)
     P = [_pole_array(p, f"poles[{k}]") for k, p in enumerate(poles)]
     y = (np.arange(1, len(P) + 1, dtype=float) if orders is None
          else as_array(orders, "orders", ndim=1))
@@ -262,17 +277,7 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
     fig = figure(9.0, 5.0)
     ax_bg = fig.add_subplot(1, 1, 1)
     ax = ax_bg.twinx()
-    if frf is not None:
-        if background == "cmif":
-            sv = _singular_values(frf.H)[:, :3]
-            for k in range(sv.shape[1]):
-                ax_bg.plot(frf.freq, db(sv[:, k]), color="0.6", lw=1.0 if k == 0 else 0.6)
-            ax_bg.set_ylabel(f"CMIF ({db_label(frf.quantity)[5:]}")
-        else:
-            ax_bg.plot(frf.freq, db(np.abs(frf.H).sum(axis=(1, 2))), color="0.6", lw=1.0)
-            ax_bg.set_ylabel(f"sum |H|, {db_label(frf.quantity)[4:-1]}")
-    else:
-        ax_bg.set_yticks([])
+    _background(ax_bg, frf, background)
     for c, (marker, color, label) in enumerate(_CLASSES):
         xs = [np.abs(p[fl == c]) / (2 * np.pi) for p, fl in zip(P, flags)]
         ys = [np.full(x.size, yk) for x, yk in zip(xs, y)]
@@ -290,9 +295,55 @@ def stabilisation(poles, frf=None, orders=None, path: str | os.PathLike | None =
     ax_bg.set_xlim(lo, hi)
     if y.size:
         pad = 0.5 * (np.ptp(y) / max(len(y) - 1, 1) if len(y) > 1 else 1.0)
-        ax.set_ylim(y.min() - pad, y.max() + pad)
+        top = y.max() + pad
+        if z is not None:
+            top = _mark_model(ax, model, (z, level), y.max() + 2 * pad, (lo, hi)) + pad
+        ax.set_ylim(y.min() - pad, top)
     ax_bg.grid(True, axis="x", alpha=0.3)
-    if ax.collections:
+    if ax.collections or ax.containers:
         fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncol=4,
                    fontsize=8, frameon=False)
     return finish(fig, path, title or "stabilisation diagram")
+
+
+def _background(ax_bg, frf, background):
+    """The stabilisation diagram's background curve: CMIF or ``sum |H|`` (dB), none
+    without an FRF."""
+    if frf is None:
+        ax_bg.set_yticks([])
+    elif background == "cmif":
+        sv = _singular_values(frf.H)[:, :3]
+        for k in range(sv.shape[1]):
+            ax_bg.plot(frf.freq, db(sv[:, k]), color="0.6", lw=1.0 if k == 0 else 0.6)
+        ax_bg.set_ylabel(f"CMIF ({db_label(frf.quantity)[5:]}")
+    else:
+        ax_bg.plot(frf.freq, db(np.abs(frf.H).sum(axis=(1, 2))), color="0.6", lw=1.0)
+        ax_bg.set_ylabel(f"sum |H|, {db_label(frf.quantity)[4:-1]}")
+
+
+def _model_level(model, level) -> float:
+    """Normal quantile of ``level`` after checking that ``model`` carries pole statistics."""
+    if not all(hasattr(model, k) for k in ("poles", "frequency_std", "damping_std")):
+        raise TypeError("model must be an identified ComplexModeModel (with frequency_std "
+                        f"and damping_std), got {type(model).__name__}")
+    return level_quantile(level)
+
+
+def _mark_model(ax, model, level, y, band) -> float:
+    """Draw ``model``'s modes in ``band`` (Hz) at height ``y``: frequency +- ``z`` std as a
+    horizontal error bar, damping +- ``z`` std (%) written above; returns ``y``."""
+    z, prob = level
+    lam = np.asarray(model.poles)
+    f, zeta = np.asarray(model.frequency), np.asarray(model.damping)
+    sf, sz = np.asarray(model.frequency_std), np.asarray(model.damping_std)
+    keep = (lam.imag > 0) & (f >= band[0]) & (f <= band[1])
+    f, zeta, hf, hz = f[keep], zeta[keep], z * sf[keep], z * sz[keep]
+    ax.errorbar(f, np.full(f.size, y), xerr=np.where(np.isfinite(hf), hf, 0.0), fmt="D",
+                ms=4, color="tab:red", capsize=3, lw=1.2,
+                label=f"identified ({prob:.0%} interval)")
+    for fj, zj, hj in zip(f, zeta, hz):
+        half = f"{100 * hj:.2g}" if np.isfinite(hj) else "n/a"
+        ax.annotate(f"{100 * zj:.3g} +- {half} %", (fj, y), xytext=(0, 5),
+                    textcoords="offset points", ha="center", va="bottom", fontsize=7,
+                    rotation=90, color="tab:red")
+    return y

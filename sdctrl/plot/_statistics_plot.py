@@ -18,10 +18,22 @@ import numpy as np
 
 from sdctrl.plot._figure import FREQ_LABEL, figure, finish
 
-__all__ = ["correlation", "mode_table"]
+__all__ = ["correlation", "level_quantile", "mode_table"]
 
 
-def _level(level) -> float:
+def level_quantile(level) -> float:
+    """Half-width in standard deviations of a two-sided normal interval of probability
+    ``level`` (1.96 at 0.95).
+
+    Parameters
+    ----------
+    level : float
+        Probability in (0, 1).
+
+    Returns
+    -------
+    float
+    """
     from scipy.stats import norm
 
     if isinstance(level, bool) or not isinstance(level, int | float) or not 0 < level < 1:
@@ -59,7 +71,7 @@ def mode_table(cm, frf=None, level: float = 0.95, path: str | os.PathLike | None
     """
     if not all(hasattr(cm, k) for k in ("frequency_std", "damping_std", "poles")):
         raise TypeError(f"cm must be a ComplexModeModel, got {type(cm).__name__}")
-    z = _level(level)
+    z = level_quantile(level)
     f, zeta = np.asarray(cm.frequency), np.asarray(cm.damping)
     hf, hz = z * np.asarray(cm.frequency_std), z * np.asarray(cm.damping_std)
     n = f.size
