@@ -318,8 +318,9 @@ def _color_cycle():
     return mpl.rcParams["axes.prop_cycle"].by_key().get("color", [None])
 
 
-def _envelope_of_model(um, freq, nominal, quantity, n_samples, seed, executor=None):
-    """(nominal FRF, |H| min, |H| max) from an UncertainModel's ``frf_envelope``."""
+def _envelope_of_model(um, freq, nominal, quantity, draws, executor=None):
+    """(nominal FRF, |H| min, |H| max) from an UncertainModel's ``frf_envelope``;
+    ``draws`` is ``(n_samples, seed, max_vertices)``."""
     from sdctrl._lib.validate import QUANTITY_POWER, check_freq, check_quantity
     from sdctrl.data._frf import FRF
 
@@ -334,7 +335,9 @@ def _envelope_of_model(um, freq, nominal, quantity, n_samples, seed, executor=No
     q = check_quantity(quantity or (nom_frf.quantity if nom_frf is not None else
                                     "displacement"), "quantity")
     extra = {} if executor is None else {"executor": executor}
-    env = um.frf_envelope(f, n_samples=n_samples, seed=seed, **extra)
+    n_samples, seed, max_vertices = draws
+    env = um.frf_envelope(f, n_samples=n_samples, seed=seed, max_vertices=max_vertices,
+                          **extra)
     gain = (2 * np.pi * f[:, None, None]) ** QUANTITY_POWER[q]    # |(j w)^k|, displacement in
     model = getattr(um, "model", None)
     ns, na = env["nominal"].shape[1:]
@@ -349,7 +352,8 @@ def _envelope_of_model(um, freq, nominal, quantity, n_samples, seed, executor=No
 
 def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.PathLike | None = None,
              title: str | None = None, *, sensors=None, actuators=None, quantity: str | None = None,
-             n_samples: int = 200, seed=0, max_cols: int = 3, executor=None) -> Figure:
+             n_samples: int = 200, seed=0, max_cols: int = 3, executor=None,
+             max_vertices: int = 256) -> Figure:
     """Uncertainty envelope: min/max band of ``|H|`` (dB) over samples, with the nominal.
 
     Parameters
@@ -382,6 +386,9 @@ def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.Pat
         Panels per row.
     executor : concurrent.futures.Executor, optional
         Passed on to ``frf_envelope`` (uncertain model only): evaluates the draws on it.
+    max_vertices : int
+        Box vertices drawn by ``frf_envelope`` (uncertain model only): all ``2**nblocks``
+        when not more, else that many random ones.
 
     Returns
     -------
@@ -394,7 +401,7 @@ def envelope(samples, freq=None, nominal=None, channels=None, path: str | os.Pat
     max_cols = check_int(max_cols, "max_cols", minimum=1)
     if callable(getattr(samples, "frf_envelope", None)):
         nom, ref, lo, hi, q = _envelope_of_model(samples, freq, nominal, quantity,
-                                                 n_samples, seed, executor)
+                                                 (n_samples, seed, max_vertices), executor)
         what = "samples and vertices"
     else:
         if freq is None and isinstance(nominal, FRF):

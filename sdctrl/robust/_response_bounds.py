@@ -38,9 +38,9 @@ def _chunk_bounds(deltas, nom) -> tuple:
     mag_max = mag_min.copy()
     ph_min = np.zeros_like(mag_min)
     ph_max = np.zeros_like(mag_min)
-    for d in deltas:
-        s = nom.um.perturbed(d)
-        H = ss_frf(s.A, s.B, s.C, s.D, nom.w)
+    um = nom.um
+    for d in deltas:                # the perturbed matrices, without a StateSpace per draw
+        H = ss_frf(*um._matrices(*um._perturbed_matrices(d)), nom.w)
         a = np.abs(H)
         mag_min, mag_max = np.minimum(mag_min, a), np.maximum(mag_max, a)
         dp = np.angle(H * np.conj(nom.H0))

@@ -4,6 +4,11 @@ The uncertain model (5.5) is ``p'' + (Gamma + dGamma) p' + (Omega + dOmega) p = 
 ``y = (cphi + dc) p + E u``.  Every uncertain entry is one real parameter; a symmetric off-diagonal
 pair of ``Gamma`` or ``Omega`` is one repeated real scalar (a rank-two channel).  The perturbation
 enters affinely, so the linear fractional transformation built by :meth:`UncertainModel.lft` is exact.
+The model's residual dynamics (identified poles kept as complex modes, ``model.residual``)
+are part of the plant, certain: their 2x2 blocks (3.26)-(3.33) follow the modal states in
+every realisation (nominal, perturbed, LFT), so that the uncertain model responds as its
+nominal model does (without them the plate's uncertain model from a survey missed half of
+its FRF in the band).
 
 Place in the flow: this module sits *before* :mod:`sdctrl.modal._normal_model` (``frf -> io -> uncertainty ->
 modal``), so that :meth:`NormalModeModel.uncertain` builds an :class:`UncertainModel` without a
@@ -161,7 +166,20 @@ class UncertainModel(FrozenState):
                                   m.Gamma if Gamma is None else Gamma,
                                   m.phib if phib is None else phib,
                                   m.cphi if cphi is None else cphi)
+        res = getattr(m, "residual", None)
+        if res is not None:                          # certain residual dynamics (3.26)-(3.33)
+            Ar, Br, Cr, _ = res.realisation(m.sensors, m.actuators)
+            A = np.block([[A, np.zeros((A.shape[0], Ar.shape[1]))],
+                          [np.zeros((Ar.shape[0], A.shape[1])), Ar]])
+            B, C = np.vstack([B, Br]), np.hstack([C, Cr])
         return A, B, C, D if m.E is None else D + m.E
+
+    def _states(self) -> list:
+        """State names: the modal ``p``, ``dp`` then the residual dynamics' ``r``, ``dr``."""
+        m = self.model
+        res = getattr(m, "residual", None)
+        extra = [] if res is None else res.realisation(m.sensors, m.actuators)[3]
+        return modal_states(m.n) + list(extra)
 
     def compact_lft(self) -> CompactLFT:
         """The Delta channels through the few signals they read and drive (exact, affine).
@@ -196,7 +214,7 @@ class UncertainModel(FrozenState):
                 drives.setdefault(drv, len(drives))
                 reads.setdefault(rd, len(reads))
                 chans.append((drives[drv], coef, reads[rd]))
-        nx, N = 2 * n, len(chans)
+        nx, N = A.shape[0], len(chans)
         Bv, Dyv = np.zeros((nx, len(drives))), np.zeros((m.ns, len(drives)))
         for (kind, i), c in drives.items():
             (Bv[n + i] if kind == "f" else Dyv[i])[c] = 1.0
@@ -237,7 +255,7 @@ class UncertainModel(FrozenState):
                                        extra_outputs=[f"{c}_z" for c in chans])
         P = control.ss(A, np.hstack([Bw, B]), np.vstack([Cz, C]),
                        np.block([[np.zeros((r, r)), Dzu], [Dyw, D]]),
-                       inputs=inputs, outputs=outputs, states=modal_states(m.n))
+                       inputs=inputs, outputs=outputs, states=self._states())
         return P, self.blocks
 
     def _perturbed_matrices(self, deltas):
@@ -286,7 +304,7 @@ class UncertainModel(FrozenState):
         m = self.model
         inputs, outputs = signal_names(m.sensors, m.actuators)
         return control.ss(*self._matrices(Om, Ga, b, c), inputs=inputs, outputs=outputs,
-                          states=modal_states(m.n))
+                          states=self._states())
 
     def sample_deltas(self, n: int, seed=None) -> np.ndarray:
         """Uniform random normalised parameters, shape ``(n, nblocks)``.

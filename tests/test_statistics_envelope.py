@@ -1,0 +1,100 @@
+"""The FRF uncertainty envelope of the uncertain model from the data (issue 24): over 50 noise
+draws of a family member's test, ``sd.plot.envelope(sd.uncertain_from_data(nm, level))``
+holds the true FRF at the stated rate (within 10 points) at the in-band lines.
+
+The truth is the normal-mode model identified from the member's exact data (its value without
+noise, through the same chain: the statistics describe the noise's effect, not the bias of a
+truncated model -- the exact structure's FRF lies inside the 1% envelopes at 5% of the lines:
+the noise-free model of three sensors misses it by a few percent, more than the noise moves
+it).  Each draw's poles are searched from the noiseless fit's (the model structure fixed, as
+in tests/test_statistics_family.py).
+"""
+
+import warnings
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+import sdctrl as sd
+
+N_DRAWS = 50
+N_LINES = 200
+N_SENSORS = 3
+#: interior samples and box vertices of each envelope (more of both widen the envelope by
+#: little: 0.83 -> 0.85 of the lines covered over the first 10 draws with 100 of each)
+N_ENV = 20
+
+
+def _subtest(frf):
+    """The plate's test reduced to three sensors and its first shaker (collocated with the
+    first sensor)."""
+    return sd.FRF(frf.freq, frf.H[:, :N_SENSORS, :1], quantity=frf.quantity,
+                  sensors=frf.sensors[:N_SENSORS], actuators=frf.actuators[:1],
+                  collocated=[(0, 0)])
+
+
+def _identify(frf, poles=None):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cm = sd.identify(frf, poles=poles, progress=False)
+        return cm, sd.normal_modes(cm)
+
+
+def _drawn_envelope(fig, n_lines):
+    """``(|H| min, |H| max)`` of each panel's band, read back from the figure (dB)."""
+    out = []
+    for ax in fig.axes:
+        if not ax.collections:
+            continue
+        v = ax.collections[0].get_paths()[0].vertices          # fill_between polygon
+        lo = 10 ** (v[1:n_lines + 1, 1] / 20)
+        hi = 10 ** (v[n_lines + 2:2 * n_lines + 2, 1][::-1] / 20)
+        out.append((lo, hi))
+    return out
+
+
+def test_envelope_from_the_data_holds_the_truth_at_the_stated_rate():
+    """Plate, 3 sensors x 1 shaker, 200 lines, 1% noise, 50 draws.  Measured: the 95%
+    envelopes hold the true FRF at 86% of the in-band lines (per draw 61-99%), the 50% ones
+    at 54%; at 5% noise (not run here) 90% and 61%."""
+    s = sd.testbeds.structure("plate")
+    exact = _subtest(s.frf(n=N_LINES))
+    ref, nm0 = _identify(exact)
+    assert nm0.n >= 3 and nm0.std is not None
+    f = exact.freq
+    inb = (f > ref.band[0]) & (f < ref.band[1])
+    # the truth as the uncertain model represents it (its residual mass F dropped)
+    truth = np.abs(nm0.replace(F=None).frf(f, exact.quantity).H[:, :, 0])   # (nf, ns)
+    rates = {0.95: [], 0.5: []}
+    widths = []
+    for k in range(N_DRAWS):
+        _, nm = _identify(_subtest(s.frf(n=N_LINES, noise=0.01, seed=700 + k)), ref.poles)
+        for level in rates:
+            um = sd.uncertain_from_data(nm, level)
+            fig = sd.plot.envelope(um, f, quantity=exact.quantity, n_samples=N_ENV,
+                                   max_vertices=N_ENV, seed=k,
+                                   channels=[(i, 0) for i in range(N_SENSORS)])
+            env = _drawn_envelope(fig, f.size)
+            plt.close(fig)
+            assert len(env) == N_SENSORS
+            if k == 0 and level == 0.95:        # the figure draws the model's envelope
+                e = um.frf_envelope(f, n_samples=N_ENV, max_vertices=N_ENV, seed=k)
+                gain = (2 * np.pi * f) ** 2                       # accelerance
+                for i, (lo, hi) in enumerate(env):
+                    np.testing.assert_allclose(lo, e["mag_min"][:, i, 0] * gain, rtol=1e-9)
+                    np.testing.assert_allclose(hi, e["mag_max"][:, i, 0] * gain, rtol=1e-9)
+            inside = np.array([(truth[:, i] >= lo * (1 - 1e-12)) &
+                               (truth[:, i] <= hi * (1 + 1e-12))
+                               for i, (lo, hi) in enumerate(env)])
+            rates[level].append(np.mean(inside[:, inb]))
+            if level == 0.95:
+                widths.append(np.median([np.median(hi[inb] / lo[inb]) for lo, hi in env]))
+    r95, r50 = np.mean(rates[0.95]), np.mean(rates[0.5])
+    assert 0.85 <= r95 <= 1.0, r95
+    assert 0.4 <= r50 <= 0.6, r50
+    # the envelope is not vacuous: a few percent wide at 1% noise (measured 2.4%)
+    assert 1.005 < np.median(widths) < 1.1, np.median(widths)
