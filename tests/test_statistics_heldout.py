@@ -1,0 +1,77 @@
+"""Held-out check of the identification statistics (issue 24): a structure that is not
+among the family's default members, the scalable lattice plate ``sd.testbeds.lattice(1000)``
+(8 modes in 7.6-267 Hz, 24 sensors x 3 shakers), checked with the criteria of
+tests/test_statistics_family.py at 1% and 5% noise, 50 draws each.
+
+The test uses the lattice's own resolution (``frf(n=600)``, 0.44 Hz lines).  At the family
+tests' 200 lines (1.3 Hz) the two modes whose half-power bandwidth is 4-8 times below the
+line spacing have a frequency scatter of 0.52-0.56 of the predicted std (conservative, the
+95% intervals cover in every draw): the first-order propagation (3.56) overstates the
+frequency's std of an under-resolved peak as it does its damping's (the family test's
+exception for the damping of under-resolved modes).  At 600 lines every ratio is within
+[0.67, 1.5].
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import sdctrl as sd
+
+N_DRAWS = 50
+N_LINES = 600
+Z95 = 1.959964
+
+
+def _identify(frf, poles=None):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return sd.identify(frf, poles=poles, progress=False)
+
+
+def heldout_draws(structure, noise, seed):
+    """Noiseless fit and, per in-band pole, each draw's estimate and predicted std (NaN where
+    a draw has no pole near it), as tests/test_statistics_family.py's ``family_draws``."""
+    ref = _identify(structure.frf(n=N_LINES))
+    lam = ref.poles[ref.in_band]
+    gap = np.array([np.min(np.abs(np.delete(ref.poles, i) - p)) for i, p in
+                    enumerate(ref.poles)])[ref.in_band]
+    tol = np.minimum(0.5 * gap, 10 * np.abs(lam.real))
+    d = {k: np.full((N_DRAWS, lam.size), np.nan) for k in ("f", "z", "fs", "zs")}
+    for k in range(N_DRAWS):
+        cm = _identify(structure.frf(n=N_LINES, noise=noise, seed=seed + k), poles=ref.poles)
+        assert cm.poles.size == ref.poles.size
+        for j, p in enumerate(lam):
+            i = int(np.argmin(np.abs(cm.poles - p)))
+            if abs(cm.poles[i] - p) < tol[j]:
+                for key, arr in (("f", cm.frequency), ("z", cm.damping),
+                                 ("fs", cm.frequency_std), ("zs", cm.damping_std)):
+                    d[key][k, j] = arr[i]
+    return ref, d
+
+
+@pytest.mark.parametrize("noise", [0.01, 0.05])
+def test_statistics_calibrated_on_a_held_out_structure(noise):
+    """Every in-band mode found in every draw; empirical std of frequency and damping within
+    [0.67, 1.5] of the median predicted one (damping of modes narrower than the line
+    spacing within [0.5, 1.5], as in the family test); 95% coverage at least 90% over the
+    modes and 84% for each.
+
+    Measured: 1% f 0.74-1.07, zeta 0.82-1.13, coverage per mode 0.88-1.0 (0.95 over the
+    modes); 5% f 0.84-1.06, zeta 0.87-1.19, coverage 0.90-1.0 (0.93-0.97).  The first two
+    modes are narrower than the line spacing (0.37 and 0.72 of it)."""
+    lattice = sd.testbeds.lattice(1000)
+    assert lattice.name not in sd.testbeds.family()
+    ref, d = heldout_draws(lattice, noise, seed=3000 + int(1000 * noise))
+    lam = ref.poles[ref.in_band]
+    assert lam.size == 8
+    assert np.all(np.isfinite(d["f"])), "a mode was missed in some draw"
+    df = (ref.band[1] - ref.band[0]) / (N_LINES - 1)
+    narrow = 2 * np.abs(lam.real) / (2 * np.pi) < df
+    for key, truth in (("f", ref.frequency[ref.in_band]), ("z", ref.damping[ref.in_band])):
+        ratio = np.std(d[key], axis=0, ddof=1) / np.median(d[key + "s"], axis=0)
+        low = np.where(narrow, 0.5, 0.67) if key == "z" else 0.67
+        assert np.all((ratio >= low) & (ratio <= 1.5)), (noise, key, np.round(ratio, 2))
+        cover = np.mean(np.abs(d[key] - truth) <= Z95 * d[key + "s"], axis=0)
+        assert np.mean(cover) >= 0.9 and np.all(cover >= 0.84), (noise, key, cover)
