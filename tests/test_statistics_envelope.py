@@ -98,3 +98,39 @@ def test_envelope_from_the_data_holds_the_truth_at_the_stated_rate():
     assert 0.4 <= r50 <= 0.6, r50
     # the envelope is not vacuous: a few percent wide at 1% noise (measured 2.4%)
     assert 1.005 < np.median(widths) < 1.1, np.median(widths)
+
+
+def test_uncertain_model_carries_the_residual_dynamics():
+    """The identified normal-mode model keeps out-of-band poles as residual dynamics; its
+    uncertain model responds as it does (nominal, perturbed, LFT), the residual dynamics
+    certain: a perturbation changes the response exactly as it changes the modes alone."""
+    exact = _subtest(sd.testbeds.structure("plate").frf(n=N_LINES, noise=0.01, seed=0))
+    _, nm = _identify(exact)
+    assert nm.residual is not None and nm.residual.m >= 1
+    um = sd.uncertain_from_data(nm, 0.95)
+    f = exact.freq
+    w = 2j * np.pi * f
+    want = nm.replace(F=None).frf(f).H                             # displacement
+    nominal = np.moveaxis(um.nominal(w), 2, 0)
+    assert np.abs(nominal - want).max() < 1e-9 * np.abs(want).max()
+    assert um.nominal.nstates == 2 * nm.n + 2 * nm.residual.m      # one input: one dyad
+    assert "r0_0" in um.nominal.state_labels
+    # a perturbation: the same change as the modes alone (the residual dynamics certain)
+    bare = sd.NormalModeModel(nm.Omega, nm.Gamma, nm.cphi, nm.phib, E=nm.E,
+                              sensors=nm.sensors, actuators=nm.actuators)
+    ub = bare.uncertain(dGamma=um.dGamma, dOmega=um.dOmega, db=um.db, dc=um.dc)
+    d = np.random.default_rng(1).uniform(-1, 1, len(um.params))
+    dH = np.moveaxis(um.perturbed(d)(w) - um.nominal(w), 2, 0)
+    dHb = np.moveaxis(ub.perturbed(d)(w) - ub.nominal(w), 2, 0)
+    assert np.abs(dHb).max() > 1e-3 * np.abs(want).max()         # the perturbation matters
+    assert np.abs(dH - dHb).max() < 1e-7 * np.abs(dHb).max()
+    # the LFT closed with the same deltas is that perturbed model
+    P, blocks = um.lft()
+    r = sum(rep for _, rep in blocks)
+    Dl = np.diag(np.repeat(d, [rep for _, rep in blocks]))
+    H = np.moveaxis(P(w), 2, 0)
+    P11, P12, P21, P22 = H[:, :r, :r], H[:, :r, r:], H[:, r:, :r], H[:, r:, r:]
+    Hc = P22 + P21 @ Dl @ np.linalg.solve(np.eye(r) - P11 @ Dl, P12)
+    Hp = np.moveaxis(um.perturbed(d)(w), 2, 0)
+    assert P.nstates == um.nominal.nstates
+    assert np.abs(Hc - Hp).max() < 1e-8 * np.abs(Hp).max()
