@@ -20,6 +20,9 @@ from sdctrl.diagnosis._residual_map import complex_residual
 
 __all__ = ["fit_task"]
 
+#: the resonator's fit starts on at most this many lines (every k-th)
+PRE_FIT_LINES = 200
+
 
 def _log_q(q):
     """``Log(q)`` with the magnitude floored as :func:`complex_residual` does."""
@@ -55,9 +58,23 @@ def _resonator_D(s, x):
 
 
 def _fit_resonator(t, A, P, Gkk):
-    """Least squares on mass, frequency and damping (log coordinates), exact Jacobian."""
-    s = t["s"]
+    """Least squares on mass, frequency and damping (log coordinates), exact Jacobian: first
+    on every k-th line (at most :data:`PRE_FIT_LINES`), then from there on all the lines
+    (a few iterations: the optimum of all the lines is sought from a point next to it)."""
+    x0 = np.log([t["grid"][t["best"]], t["omega"], t["zeta"]])
+    lb = [np.log(t["bounds"][0]), x0[1] - 0.3, np.log(1e-5)]
+    ub = [np.log(t["bounds"][1]), x0[1] + 0.3, np.log(0.5)]
+    x = np.clip(x0, lb, ub)
+    k = -(-t["s"].size // PRE_FIT_LINES)
+    if k > 1:
+        x = _least_squares(t["s"][::k], A[::k], P[::k], Gkk[::k], x, lb, ub).x
+    res = _least_squares(t["s"], A, P, Gkk, x, lb, ub)
+    m, w, z = np.exp(res.x)
+    return float(np.mean(res.fun**2) * 2), float(m), float(w), float(z)
 
+
+def _least_squares(s, A, P, Gkk, x0, lb, ub):
+    """The resonator's least-squares fit on lines ``s`` from ``x0``."""
     def parts(x):
         D, dD = _resonator_D(s, x)
         den = 1.0 + D * Gkk
@@ -70,16 +87,12 @@ def _fit_resonator(t, A, P, Gkk):
 
     def jac(x):
         q, dg = parts(x)
-        cols = [(-(g[:, None, None] * P) / q).reshape(-1) for g in dg]
+        Pq = P / q
+        cols = [(-g[:, None, None] * Pq).reshape(-1) for g in dg]
         return np.stack([np.r_[c.real, c.imag] for c in cols], axis=1)
 
-    x0 = np.log([t["grid"][t["best"]], t["omega"], t["zeta"]])
-    lb = [np.log(t["bounds"][0]), x0[1] - 0.3, np.log(1e-5)]
-    ub = [np.log(t["bounds"][1]), x0[1] + 0.3, np.log(0.5)]
-    res = least_squares(rv, np.clip(x0, lb, ub), jac=jac, bounds=(lb, ub),
-                        x_scale=[1, 0.01, 1], xtol=1e-10, ftol=1e-12, max_nfev=100)
-    m, w, z = np.exp(res.x)
-    return float(np.mean(res.fun**2) * 2), float(m), float(w), float(z)
+    return least_squares(rv, x0, jac=jac, bounds=(lb, ub), x_scale=[1, 0.01, 1],
+                         xtol=1e-10, ftol=1e-12, max_nfev=100)
 
 
 def fit_task(t) -> tuple:
