@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 import platform
 import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -76,8 +78,9 @@ def _summary(log) -> dict:
     return {"sdctrl": __version__, "seconds": log.seconds, "steps": steps}
 
 
-def _diagnosis(log, test, upd, progress=None):
-    """Step 8, or a "not available" line when this version has no ``sdctrl.diagnose``."""
+def _diagnosis(log, test, upd, progress=None, pending=None):
+    """Step 8, or a "not available" line when this version has no ``sdctrl.diagnose``;
+    ``pending`` is the step already running in a second process (:func:`_start_diagnosis`)."""
     import sdctrl
 
     title = "diagnosis of a second test"
@@ -85,8 +88,50 @@ def _diagnosis(log, test, upd, progress=None):
         log.unavailable("diagnosis", title, "sdctrl.diagnose is not in this version of sdctrl "
                         f"({sdctrl.__version__})")
         return None
+    if pending is not None:
+        return log.run("diagnosis", title, _collected, pending, needs=[upd])
     return log.run("diagnosis", title, diagnose_retest, test, upd, progress=progress,
                    needs=[upd])
+
+
+def _diagnosis_worker(test, upd):
+    """``diagnose_retest`` in a second process: its record and the warnings it raised."""
+    with single_thread(), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        record = diagnose_retest(test, upd, progress=False)
+    return record, [(w.category, str(w.message)) for w in caught]
+
+
+def _start_diagnosis(test, upd):
+    """Start step 8 in a second (forked) process, beside steps 5-7 that do not need it: the
+    story's wall time is then about the longer of the two branches on a machine with two
+    cores.  ``(executor, future)``, or None when the step cannot run there (no ``fork`` or
+    no ``sdctrl.diagnose``): it then runs in turn."""
+    import multiprocessing
+
+    import sdctrl
+
+    if upd is None or not hasattr(sdctrl, "diagnose") or (os.cpu_count() or 1) < 2 \
+            or "fork" not in multiprocessing.get_all_start_methods():
+        return None
+    try:
+        pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+        return pool, pool.submit(_diagnosis_worker, test, upd)
+    except (OSError, ValueError, TypeError):
+        return None
+
+
+def _collected(pending):
+    """The record of the step started by :func:`_start_diagnosis` (its warnings raised again
+    here, so that the step log records them)."""
+    pool, future = pending
+    try:
+        record, caught = future.result()
+    finally:
+        pool.shutdown()
+    for category, message in caught:
+        warnings.warn(message, category, stacklevel=2)
+    return record
 
 
 def demo(out: str = "sdctrl-demo", noise: float = 0.01, seed: int = 0, quiet: bool = False,
@@ -144,12 +189,13 @@ def _story(out, noise, seed, quiet, progress) -> int:
     nm = log.run("normal_modes", "normal modes", normal_modes_of, ident, test, needs=[ident])
     upd = log.run("update", "FE model update", update_fe, test, nm, progress=progress,
                   needs=[test, nm])
+    pending = _start_diagnosis(test, upd)
     hy = log.run("hybrid", "hybrid model", build_hybrid, test, nm, upd, ident, needs=[upd])
     pl = log.run("placement", "D-strut placement", place_strut, test, hy, upd,
                  progress=progress, needs=[hy])
     rb = log.run("robustness", "robust stability", robust_strut, hy, pl, upd,
                  progress=progress, needs=[pl])
-    dg = _diagnosis(log, test, upd, progress)
+    dg = _diagnosis(log, test, upd, progress, pending)
     t0 = time.perf_counter()
     doc = Document("sdctrl demo: from a vibration test to a robust, diagnosed model",
                    "Every step of sdctrl on the built-in testbed, whose truth is known: each "

@@ -1,16 +1,19 @@
 """The scan of physical candidates on an FE model: a vectorised screen, then full fits.
 
 1. **set-up** (once per model): the model's shapes on the FE DOFs, one complex-mode
-   factorisation (:class:`~sdctrl.diagnosis._lowrank.Resolvent`), the static corrections
-   (4.23) of unit loads on every node translation, and the transfers between sensors,
-   actuators and node translations;
+   factorisation (:class:`~sdctrl.diagnosis._lowrank.Resolvent`) and the static corrections
+   (4.23) of the test's own unit loads (one solve per tested DOF).  Each candidate is a
+   low-rank change of that reduced model: its load (a few DOFs) projected on the modes and
+   on those static corrections, so that the scan grows with the candidates, not with the
+   FE size;
 2. **screen**: every candidate of every family at every size of its grid, by the Woodbury
    update (rank 1 or 3) on a subset of lines, in single precision, log-magnitude logLS --
    batched over candidates, in chunks that an executor may run anywhere (the chunks and
    their order do not depend on the executor, so the ranking is identical); what every
    chunk reads (the data's lines) is shared, scattered once on a Dask client;
-3. **fits**: the best candidates of each family and overall are fitted again on all the data
-   with the complex logLS (3.12): a bounded 1-D minimisation of ``log(base + size)`` from the
+3. **fits**: the best candidates of each family and overall, with their exact static
+   correction (one solve each), are fitted again on all the data with the complex logLS
+   (3.12), :mod:`._finalist_fit`: a bounded 1-D minimisation of ``log(base + size)`` from the
    best grid point, or (resonators) a least-squares fit of mass, frequency and damping.
 """
 
@@ -20,22 +23,18 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import least_squares, minimize_scalar
 
 from sdctrl._lib.parallel import dask_client, map_chunks, share
-from sdctrl._lib.threads import single_thread
 from sdctrl.diagnosis._candidates import families
+from sdctrl.diagnosis._finalist_fit import fit_task
 from sdctrl.diagnosis._global_effects import proposal
 from sdctrl.diagnosis._lowrank import (
     Resolvent,
-    dynamic_stiffness,
     screen_chunk,
     static_terms,
-    woodbury,
 )
-from sdctrl.diagnosis._residual_map import complex_residual
 
-__all__ = ["Setup", "fit_task", "physical_proposals", "setup"]
+__all__ = ["Setup", "physical_proposals", "setup"]
 
 #: at most this many lines in the screen (every k-th line)
 SCREEN_LINES = 200
@@ -73,7 +72,7 @@ class Setup:
     phid : ndarray, shape (nd, n)
         Shapes at the candidate DOFs.
     static : StaticTerms
-        Static corrections of unit loads at the candidate DOFs.
+        Static corrections of the test's unit loads (and of any load on demand).
     families : list of Family
         The candidate families.
     """
@@ -136,47 +135,57 @@ def setup(model, fe, placed, cand) -> Setup:
     inb = (w >= lo) & (w <= hi)
     if not inb.any():
         inb = w > 0
-    modal_b = {k: np.einsum("cdk,dm->ckm", g.beta, phid[:, inb]) for k, g in groups.items()}
+    modal_b = {k: g.project(phid[:, inb]) for k, g in groups.items()}
     Md = fe.M.diagonal() if sp.issparse(fe.M) else np.diag(np.asarray(fe.M))
-    node_mass = [float(np.mean(Md[dof_idx][np.any(b != 0, axis=1)]))
-                 for b in groups["nodes"].beta]
+    g = groups["nodes"]
+    used = np.any(g.val != 0, axis=2)                                  # (nn, 3)
+    node_mass = np.sum(Md[dof_idx][g.idx] * used, axis=1) / np.maximum(used.sum(axis=1), 1)
     fams = families(fe, groups, n_el, modal_b, w[inb], np.diag(model.Gamma)[inb], node_mass)
     return Setup(fe, model, rows_fe, T, res, np.asarray(model.cphi)[placed.rows],
                  np.asarray(model.phib)[:, placed.cols], dof_idx, phid, st, fams)
 
 
-def _transfers(S, placed, s, beta):
-    """``G_yk, G_kk, G_ku`` (with static terms) of load shapes ``beta`` (nc, nd, k) on ``s``."""
-    nc, nd, k = beta.shape
-    Fy = S.static.Fyd[placed.rows]                                     # (ns, nd)
-    Fu = S.static.Fdu[:, placed.cols]                                  # (nd, na)
-    Gyd = S.res.transfer(s, S.C.T, S.phid.T) + Fy                      # (nf, ns, nd)
-    Gdu = S.res.transfer(s, S.phid.T, S.B) + Fu                        # (nf, nd, na)
-    Bs = sp.csr_matrix(beta.transpose(1, 0, 2).reshape(nd, nc * k))
-    nf, ns, na = Gyd.shape[0], Gyd.shape[1], Gdu.shape[2]
-    Gyk = (Bs.T @ Gyd.transpose(2, 0, 1).reshape(nd, nf * ns)).reshape(nc, k, nf, ns)
-    Gku = (Bs.T @ Gdu.transpose(1, 0, 2).reshape(nd, nf * na)).reshape(nc, k, nf, na)
-    bm = (S.phid.T @ beta.transpose(1, 0, 2).reshape(nd, nc * k))      # (n, nc k)
+def _transfers(S, placed, s, group):
+    """``G_yk, G_kk, G_ku`` of every candidate of ``group`` on lines ``s``: modal transfers of
+    their loads projected on the model's shapes, static terms from the test's static
+    corrections (exact) and, for ``G_kk``, the candidate's own flexibility projected on them
+    (:meth:`StaticTerms.projected`).  Work and memory grow with the candidates only."""
+    nc, k = group.size, group.rank
+    bm = group.project(S.phid)                                         # (nc, k, n)
+    bmf = bm.reshape(nc * k, -1).T                                     # (n, nc k)
+    nf = s.size
+    Gyk = S.res.transfer(s, S.C.T, bmf).reshape(nf, -1, nc, k).transpose(2, 0, 1, 3)
+    Gyk = Gyk + group.project(S.static.Fyd[placed.rows].T).transpose(0, 2, 1)[:, None]
+    Gku = S.res.transfer(s, bmf, S.B).reshape(nf, nc, k, -1).transpose(1, 0, 2, 3)
+    Gku = Gku + group.project(S.static.Fdu[:, placed.cols])[:, None]
     if S.res.lam is not None:
-        Rs = 1.0 / (s[:, None] - S.res.lam[None, :])
-        Lv = (bm.T @ S.res.Vt).reshape(nc, k, -1)
-        Rv = (S.res.Wb @ bm).reshape(-1, nc, k).transpose(1, 0, 2)
-        Gkk = np.einsum("fj,cpj,cjq->cfpq", Rs, Lv, Rv)
+        Rs = 1.0 / (s[:, None] - S.res.lam[None, :])                   # (nf, 2n)
+        Lv = (bmf.T @ S.res.Vt).reshape(nc, k, -1)
+        Rv = (S.res.Wb @ bmf).reshape(-1, nc, k).transpose(1, 0, 2)
+        W = np.einsum("cpj,cjq->jcpq", Lv, Rv).reshape(Rs.shape[1], -1)
+        Gkk = (Rs @ W).reshape(nf, nc, k, k).transpose(1, 0, 2, 3)
     else:
-        Gkk = np.stack([S.res.transfer(s, bm[:, c * k:(c + 1) * k], bm[:, c * k:(c + 1) * k])
-                        for c in range(nc)])
-    Gkk = Gkk + np.einsum("cdp,de,ceq->cpq", beta, S.static.Fdd, beta)[:, None]
-    return Gyk.transpose(0, 2, 3, 1), Gkk, Gku.transpose(0, 2, 1, 3)
+        Gkk = np.stack([S.res.transfer(s, bmf[:, c * k:(c + 1) * k], bmf[:, c * k:(c + 1) * k])
+                        for c in range(nc)]).reshape(nc, nf, k, k)
+    Gkk = Gkk + S.static.projected(group)[:, None]
+    return Gyk, Gkk, Gku
 
 
-def _single(S, placed, beta):
-    """``G_yk, G_kk, G_ku`` of one load shape ``beta`` (nd, k) on all the lines."""
+def _single(S, placed, group, c):
+    """``(G_yk, G_kk, G_ku)`` of candidate ``c`` of ``group`` on all the lines, with its exact
+    static correction (one solve), and ``(psi (N, k), b^T psi (k, k))``."""
     s = placed.s
+    beta = group.dense(c, S.dof_idx.size)                              # (nd, k)
+    b = np.zeros((S.fe.N, beta.shape[1]))
+    b[S.dof_idx] = beta
+    psi = S.static.correction(b)
+    Fb = beta.T @ psi[S.dof_idx]
+    Fb = 0.5 * (Fb + Fb.T)
     bm = S.phid.T @ beta
     Gyk = S.res.transfer(s, S.C.T, bm) + S.static.Fyd[placed.rows] @ beta
     Gku = S.res.transfer(s, bm, S.B) + beta.T @ S.static.Fdu[:, placed.cols]
-    Gkk = S.res.transfer(s, bm, bm) + beta.T @ S.static.Fdd @ beta
-    return Gyk, Gkk, Gku
+    Gkk = S.res.transfer(s, bm, bm) + Fb
+    return (Gyk, Gkk, Gku), (beta, psi, Fb)
 
 
 def _grids(S, mode):
@@ -201,17 +210,16 @@ def _screen(S, placed, H, mode, executor, progress):
 
     Returns ``{family: (best cost (nc,), best column of the full grid (nc,))}``.
     """
-    step = -(-placed.freq.size // SCREEN_LINES)
-    s, Hd = placed.s[::step], placed.Hd[::step]
-    base = {"A": (H[::step] / Hd).astype(np.complex64), "iHd": (1.0 / Hd).astype(np.complex64),
-            "s": s}
+    base = _screen_lines(placed, H)
+    base.pop("step")
+    s = base["s"]
     G = {}
     grids = _grids(S, mode)
     for fi in grids:
         name = S.families[fi].group.name
         if name not in G:
             G[name] = [x.astype(np.complex64)
-                       for x in _transfers(S, placed, s, S.families[fi].group.beta)]
+                       for x in _transfers(S, placed, s, S.families[fi].group)]
 
     # on Dask the transfers are scattered once for both stages, tasks carry indices
     scattered = dask_client(executor) is not None
@@ -272,56 +280,26 @@ def _fit_task(t, lines):
     return fit_task({**lines, **t})
 
 
-def fit_task(t) -> tuple:
-    """Full fit of one finalist on all the data (complex logLS); runs on any executor.
+def _screen_lines(placed, H):
+    """What a screen task reads of the lines: every k-th line, single precision."""
+    step = -(-placed.freq.size // SCREEN_LINES)
+    Hd = placed.Hd[::step]
+    return {"A": (H[::step] / Hd).astype(np.complex64),
+            "iHd": (1.0 / Hd).astype(np.complex64), "s": placed.s[::step], "step": step}
 
-    Parameters
-    ----------
-    t : dict
-        ``H0``, ``Hd``, ``s``, ``Gyk``, ``Gkk``, ``Gku`` (on all lines), ``kind``,
-        ``base``, ``bounds``, ``grid`` (screen sizes), ``best`` (index in it) and, for a
-        resonator, ``omega`` and ``zeta`` (its screen tuning).
 
-    Returns
-    -------
-    tuple
-        ``(cost, size, omega, zeta)`` (NaN omega/zeta for non-resonators).
-    """
-    with single_thread():
-        H0, Hd, s = t["H0"], t["Hd"], t["s"]
-        Gyk, Gkk, Gku, kind = t["Gyk"], t["Gkk"], t["Gku"], t["kind"]
-
-        def J(size, w=None, z=None):
-            D = dynamic_stiffness(kind, s, size, None if w is None else (w, z))
-            r = complex_residual(woodbury(H0, Gyk, Gkk, Gku, D), Hd)
-            return r
-
-        def c1(u):
-            r = J(np.exp(u) - t["base"])
-            return float(np.mean(r.real**2 + r.imag**2))
-
-        if kind != "resonator":
-            u = np.sort(np.log(t["base"] + t["grid"]))
-            j = int(np.searchsorted(u, np.log(t["base"] + t["grid"][t["best"]])))
-            lo = np.log(t["base"] + t["bounds"][0])
-            hi = np.log(t["base"] + t["bounds"][1])
-            a = u[j - 1] if j > 0 else lo
-            b = u[j + 1] if j + 1 < u.size else hi
-            res = minimize_scalar(c1, bounds=(a, b), method="bounded",
-                                  options={"xatol": 1e-6})
-            return float(res.fun), float(np.exp(res.x) - t["base"]), np.nan, np.nan
-        x0 = np.log([t["grid"][t["best"]], t["omega"], t["zeta"]])
-
-        def rv(x):
-            r = J(np.exp(x[0]), np.exp(x[1]), np.exp(x[2])).reshape(-1)
-            return np.r_[r.real, r.imag]
-
-        lb = [np.log(t["bounds"][0]), x0[1] - 0.3, np.log(1e-5)]
-        ub = [np.log(t["bounds"][1]), x0[1] + 0.3, np.log(0.5)]
-        res = least_squares(rv, np.clip(x0, lb, ub), bounds=(lb, ub), x_scale=[1, 0.01, 1],
-                            xtol=1e-10, ftol=1e-12, max_nfev=100)
-        m, w, z = np.exp(res.x)
-        return float(np.mean(res.fun**2) * 2), float(m), float(w), float(z)
+def _best_size(base, kind, grid, extra, G):
+    """Best point of a finalist's screen grid with its exact transfers ``G`` (all lines):
+    the screen ranked the candidates with their own flexibility projected on the test's
+    static corrections, the fit starts from the grid point its exact static correction
+    prefers."""
+    k = base["step"]
+    t = {"A": base["A"], "iHd": base["iHd"], "s": base["s"], "kind": kind,
+         "sizes": grid[None], "extra": None if extra is None else (extra[0][None],
+                                                                   extra[1][None])}
+    t.update({name: g[::k][None].astype(np.complex64)
+              for name, g in zip(("Gyk", "Gkk", "Gku"), G)})
+    return int(np.argmin(screen_chunk(t)[0]))
 
 
 def _finalists(best):
@@ -336,11 +314,11 @@ def _finalists(best):
     return sorted(keep)
 
 
-def _describe(S, fam, pos, cost_, size, w, z):
+def _describe(S, fam, pos, static, cost_, size, w, z):
     """Proposal of a fitted physical candidate (with what apply needs)."""
     g = fam.group
     c = int(fam.members[pos])
-    beta = g.beta[c]
+    beta, psi, Fb = static
     loc = g.locations[c]
     kind = fam.kind
     if kind == "added_damper":
@@ -358,10 +336,9 @@ def _describe(S, fam, pos, cost_, size, w, z):
     st = S.static
     b = np.zeros((S.fe.N, beta.shape[1]))
     b[S.dof_idx] = beta
-    Fb = beta.T @ st.Fdd @ beta
     payload = {"kind": kind, "size": size, "omega": w, "zeta": z,
                "b": b[S.rows_fe], "bpsi": Fb,
-               "static": {"psi": (st.Psi @ beta)[S.rows_fe], "Kpsi": Fb,
+               "static": {"psi": psi[S.rows_fe], "Kpsi": Fb,
                           "cy": st.Fyd @ beta, "bu": beta.T @ st.Fdu}}
     return proposal("missing_mode" if kind == "resonator" else kind, loc, params, cost_, k,
                     fam.size, "lowrank", payload)
@@ -393,13 +370,16 @@ def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
     """
     best, grids = _screen(S, placed, H, mode, executor, progress)
     fin = _finalists(best)
-    fits = []
+    fits, statics = [], []
+    base = _screen_lines(placed, H)
     for fi, pos in fin:
         fam = S.families[fi]
         c = int(fam.members[pos])
-        Gyk, Gkk, Gku = _single(S, placed, fam.group.beta[c])
+        (Gyk, Gkk, Gku), static = _single(S, placed, fam.group, c)
+        statics.append(static)
         grid, extra, _ = grids[fi]
-        j = int(best[fi][1][pos])
+        ex = None if extra is None else (extra[0][pos], extra[1][pos])
+        j = _best_size(base, fam.kind, grid[pos], ex, (Gyk, Gkk, Gku))
         t = {"Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
              "kind": fam.kind, "base": float(fam.base[pos]), "bounds": fam.bounds[pos],
              "grid": grid[pos], "best": j}
@@ -408,4 +388,5 @@ def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
         fits.append(t)
     lines = {"H0": H, "Hd": placed.Hd, "s": placed.s}
     res = map_chunks(_fit_task, fits, lines, executor, progress, "fits")
-    return [_describe(S, S.families[fi], pos, *r) for (fi, pos), r in zip(fin, res)]
+    return [_describe(S, S.families[fi], pos, st, *r)
+            for (fi, pos), st, r in zip(fin, statics, res)]

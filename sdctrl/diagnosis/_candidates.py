@@ -16,7 +16,6 @@ the element's own axial stiffness ``EA/L``, so that one grid of relative sizes s
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +36,11 @@ _AXES = ("x", "y", "z")
 
 @dataclass(frozen=True, eq=False)
 class Group:
-    """Candidates sharing their load shapes (so their transfers are computed once).
+    """Candidates sharing their kind of load shape (so their transfers are computed together).
+
+    A load shape touches a few candidate DOFs only (a strut: the six translations of its two
+    nodes, a node: its three): it is kept as those DOFs and their weights, never as a dense
+    (nd,) column, so that memory and work grow with the candidates, not with the FE size.
 
     Parameters
     ----------
@@ -45,18 +48,58 @@ class Group:
         What the load shapes act on.
     locations : tuple
         Node pairs, node names or DOF labels.
-    beta : ndarray, shape (nc, nd, k)
-        Load shapes on the candidate DOFs.
+    idx : ndarray of int, shape (nc, w)
+        Candidate DOFs (positions in the candidate DOF list) each load touches (padded with
+        weight 0).
+    val : ndarray, shape (nc, w, k)
+        The load shapes' weights on those DOFs.
     """
 
     name: str
     locations: tuple
-    beta: np.ndarray
+    idx: np.ndarray
+    val: np.ndarray
 
     @property
     def size(self) -> int:
         """Number of candidates."""
         return len(self.locations)
+
+    @property
+    def rank(self) -> int:
+        """Number of columns ``k`` of each load shape."""
+        return self.val.shape[2]
+
+    def project(self, X) -> np.ndarray:
+        """``beta_c^T X`` of every candidate, ``X`` (nd, m) on the candidate DOFs.
+
+        Parameters
+        ----------
+        X : ndarray, shape (nd, m)
+
+        Returns
+        -------
+        ndarray, shape (nc, k, m)
+        """
+        return np.einsum("cwk,cwm->ckm", self.val, X[self.idx])
+
+    def dense(self, c: int, nd: int) -> np.ndarray:
+        """Load shape ``beta`` (nd, k) of candidate ``c`` on the ``nd`` candidate DOFs.
+
+        Parameters
+        ----------
+        c : int
+            Candidate.
+        nd : int
+            Number of candidate DOFs.
+
+        Returns
+        -------
+        ndarray, shape (nd, k)
+        """
+        out = np.zeros((nd, self.rank))
+        np.add.at(out, self.idx[c], self.val[c])
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,9 +168,12 @@ def _node_dofs(fe):
 
 
 def _pairs(fe, reach):
-    """Elements first (their own order), then unconnected pairs within ``reach``."""
+    """Elements first (their own order), then unconnected pairs within ``reach`` (found by a
+    k-d tree: the work grows with the pairs, not with the square of the nodes)."""
+    from scipy.spatial import cKDTree
+
     names = list(fe.nodes)
-    X = {n: np.asarray(fe.nodes[n]) for n in names}
+    X = {n: np.asarray(fe.nodes[n], float) for n in names}
     elems, seen = [], set()
     for a, b in fe.elements or ():
         key = frozenset((a, b))
@@ -137,8 +183,13 @@ def _pairs(fe, reach):
     if reach is None:
         L = [np.linalg.norm(X[a] - X[b]) for a, b in elems]
         reach = 1.5 * max(L) if L else np.inf
-    others = [(a, b) for a, b in itertools.combinations(names, 2)
-              if frozenset((a, b)) not in seen and 0 < np.linalg.norm(X[a] - X[b]) <= reach]
+    xyz = np.array([X[n] for n in names]).reshape(len(names), -1)
+    if not np.isfinite(reach):
+        reach = 2.0 * float(np.ptp(xyz, axis=0).max(initial=0.0)) + 1.0
+    near = sorted(cKDTree(xyz).query_pairs(reach * (1 + 1e-9), output_type="ndarray").tolist())
+    others = [(names[i], names[j]) for i, j in near
+              if frozenset((names[i], names[j])) not in seen
+              and 0 < np.linalg.norm(xyz[i] - xyz[j]) <= reach]
     return elems, others
 
 
@@ -163,35 +214,39 @@ def candidate_groups(fe, reach=None):
         The first ``n_elements`` pairs are elements.
     """
     dof_idx, where = _node_dofs(fe)
-    nd = dof_idx.size
     elems, others = _pairs(fe, reach)
-    pairs, betas, n_el = [], [], 0
-    index = set(fe.dofs)
+    pairs, pi, pv, n_el = [], [], [], 0
     for i, (a, b) in enumerate(elems + others):
-        if not any(f"{n}.{ax}" in index for n in (a, b) for ax in _AXES):
-            continue                               # both ends clamped: nothing to scan
-        v = fe.strut(a, b)[dof_idx, 0]
-        if np.any(v):
-            pairs.append((a, b))
-            betas.append(v)
-            n_el += i < len(elems)
-    nodes, nb = [], []
+        xa, xb = np.asarray(fe.nodes[a], float), np.asarray(fe.nodes[b], float)
+        e = (xb - xa) / np.linalg.norm(xb - xa)             # as FEModel.strut (5.4)
+        ix, vx = [], []
+        for sign, node in ((-1.0, a), (1.0, b)):
+            for comp, ax in zip(e, _AXES):
+                if (node, ax) in where:
+                    ix.append(where[(node, ax)])
+                    vx.append(sign * comp)
+        if not np.any(vx):
+            continue                   # both ends clamped, or no free axial motion: no load
+        pairs.append((a, b))
+        pi.append(ix + [0] * (6 - len(ix)))
+        pv.append(vx + [0.0] * (6 - len(vx)))
+        n_el += i < len(elems)
+    nodes, ni, nv = [], [], []
     for node in fe.nodes:
-        B = np.zeros((nd, 3))
-        for j, ax in enumerate(_AXES):
-            if (node, ax) in where:
-                B[where[(node, ax)], j] = 1.0
-        if B.any():
+        js = [j for j, ax in enumerate(_AXES) if (node, ax) in where]
+        if js:
             nodes.append(node)
-            nb.append(B)
+            ni.append([where[(node, _AXES[j])] if j in js else 0 for j in range(3)])
+            nv.append(np.diag([1.0 if j in js else 0.0 for j in range(3)]))
     labels = [f"{node}.{ax}" for (node, ax) in where]
-    order = [where[(n, a)] for (n, a) in where]
-    E = np.zeros((len(labels), nd, 1))
-    E[np.arange(len(labels)), order, 0] = 1.0
+    order = np.array([where[key] for key in where], int)
     groups = {
-        "pairs": Group("pairs", tuple(pairs), np.array(betas).reshape(len(pairs), nd, 1)),
-        "nodes": Group("nodes", tuple(nodes), np.array(nb).reshape(len(nodes), nd, 3)),
-        "dofs": Group("dofs", tuple(labels), E),
+        "pairs": Group("pairs", tuple(pairs), np.array(pi, int).reshape(-1, 6),
+                       np.array(pv, float).reshape(-1, 6, 1)),
+        "nodes": Group("nodes", tuple(nodes), np.array(ni, int).reshape(-1, 3),
+                       np.array(nv, float).reshape(-1, 3, 3)),
+        "dofs": Group("dofs", tuple(labels), order.reshape(-1, 1),
+                      np.ones((order.size, 1, 1))),
     }
     return dof_idx, groups, n_el
 

@@ -41,6 +41,8 @@ FACTOR_RTOL = 1e-7
 DEFECT_SPLIT = 1e-7
 #: floor of |H / Hd|^2 in the screen (single precision)
 _TINY = np.float32(1e-30)
+#: entries of a block of candidates in the screen (about 1 MB of complex64: in cache)
+BLOCK = 2 ** 17
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,6 +134,8 @@ class Resolvent:
             Rs = 1.0 / (s[:, None] - self.lam[None, :])                  # (nf, 2n)
             Lv = left.T @ self.Vt                                          # (p, 2n)
             Rv = self.Wb @ right                                           # (2n, q)
+            if Lv.shape[0] > Rv.shape[1]:          # wide left: never form (nf, p, 2n)
+                return Lv @ (Rs[:, :, None] * Rv[None])
             X = (Rs[:, None, :] * Lv[None]).reshape(-1, Rs.shape[1]) @ Rv
             return X.reshape(s.size, Lv.shape[0], Rv.shape[1])
         Z = (s[:, None, None] ** 2 * np.eye(self.n) + s[:, None, None] * self.Gamma
@@ -164,40 +168,84 @@ class Resolvent:
 
 @dataclass(frozen=True, eq=False)
 class StaticTerms:
-    """Static corrections (4.23) of unit loads on candidate DOFs, w.r.t. a model's shapes.
+    """Static corrections (4.23) with respect to a model's shapes ``T``.
+
+    ``Psi = K^-1 - T (T^T K T)^+ T^T`` is symmetric: the static terms between the test's
+    sensors/actuators and any candidate DOF are rows of the static corrections of the test's
+    own unit loads, computed once (one solve per tested DOF, whatever the number of
+    candidates).  A candidate's own local flexibility ``b^T Psi b`` needs its own solve: the
+    screen uses its projection on the basis of the test's static corrections
+    (:meth:`projected`), the finalists the exact value (:meth:`correction`).
 
     Parameters
     ----------
-    Psi : ndarray, shape (N, nd)
-        Static correction of a unit load on each candidate DOF.
-    Fdd : ndarray, shape (nd, nd)
-        ``Psi`` on the candidate DOFs (residual flexibility between them).
+    fe : FEModel
+        The FE model (its cached factorisation).
+    T : ndarray, shape (N, n)
+        The model's shapes on the FE DOFs.
+    Kt_pinv : ndarray, shape (n, n)
+        ``(T^T K T)^+``.
+    dof_idx : ndarray of int, shape (nd,)
+        Candidate DOFs.
     Fyd : ndarray, shape (ns, nd)
-        ``Psi`` at the model's sensors.
+        ``Psi`` between the model's sensors and the candidate DOFs.
     Fdu : ndarray, shape (nd, na)
-        ``Psi^T b_u`` for the model's actuators.
-    flexibility : ndarray, shape (nd, nd)
-        Full static flexibility ``K^-1`` between the candidate DOFs.
+        ``Psi`` between the candidate DOFs and the model's actuators.
+    Pd : ndarray, shape (nd, nio)
+        Static corrections of the tested DOFs' unit loads at the candidate DOFs.
+    Kio_pinv : ndarray, shape (nio, nio)
+        Pseudo-inverse of their stiffness ``Psi_io^T K Psi_io``.
     """
 
-    Psi: np.ndarray
-    Fdd: np.ndarray
+    fe: object
+    T: np.ndarray
+    Kt_pinv: np.ndarray
+    dof_idx: np.ndarray
     Fyd: np.ndarray
     Fdu: np.ndarray
-    flexibility: np.ndarray
+    Pd: np.ndarray
+    Kio_pinv: np.ndarray
+
+    def correction(self, b) -> np.ndarray:
+        """Exact static correction ``Psi b`` (N, k) of loads ``b`` (N, k): one solve.
+
+        Parameters
+        ----------
+        b : ndarray, shape (N, k)
+
+        Returns
+        -------
+        ndarray, shape (N, k)
+        """
+        return self.fe.static_response(b) - self.T @ (self.Kt_pinv @ (self.T.T @ b))
+
+    def projected(self, group) -> np.ndarray:
+        """``b^T Psi_io (Psi_io^T K Psi_io)^+ Psi_io^T b`` of every candidate of ``group``.
+
+        Parameters
+        ----------
+        group : Group
+            Candidates (compact load shapes on the candidate DOFs).
+
+        Returns
+        -------
+        ndarray, shape (nc, k, k)
+        """
+        P = group.project(self.Pd)                                         # (nc, k, nio)
+        return np.einsum("cpi,ij,cqj->cpq", P, self.Kio_pinv, P)
 
 
 def _pinv_sym(A, rtol=1e-10):
     d, U = np.linalg.eigh(0.5 * (A + A.T))
-    keep = np.abs(d) > rtol * max(np.abs(d).max(), 1e-300)
+    keep = np.abs(d) > rtol * max(np.abs(d).max(initial=0.0), 1e-300)
     return (U[:, keep] / d[keep]) @ U[:, keep].T
 
 
 def static_terms(fe, shapes, dof_idx, sensor_rows, actuator_cols) -> StaticTerms:
-    """Static corrections of unit loads at ``dof_idx`` with respect to ``span(shapes)``.
+    """Static corrections (4.23) of the test's unit loads with respect to ``span(shapes)``.
 
-    ``psi = K^-1 e - T (T^T K T)^+ T^T e`` (4.23): one solve with the model's cached
-    factorisation (inertia relief for free structures), whatever the number of DOFs.
+    ``psi = K^-1 e - T (T^T K T)^+ T^T e``: one solve with the model's cached factorisation
+    (inertia relief for free structures) per tested DOF, whatever the number of candidates.
 
     Parameters
     ----------
@@ -216,21 +264,24 @@ def static_terms(fe, shapes, dof_idx, sensor_rows, actuator_cols) -> StaticTerms
     -------
     StaticTerms
     """
-    N = fe.N
-    E = np.zeros((N, dof_idx.size))
-    E[dof_idx, np.arange(dof_idx.size)] = 1.0
-    X = fe.static_response(E)
     T = shapes
-    Kt = T.T @ np.asarray(fe.K @ T)
-    Psi = X - T @ (_pinv_sym(Kt) @ (T.T @ E))
+    Ktp = _pinv_sym(T.T @ np.asarray(fe.K @ T))
+    io = np.unique(np.r_[sensor_rows, actuator_cols])
+    io = io[io >= 0]
+    E = np.zeros((fe.N, io.size))
+    E[io, np.arange(io.size)] = 1.0
+    Psi = fe.static_response(E) - T @ (Ktp @ T[io].T) if io.size else E
+    col = {int(r): j for j, r in enumerate(io)}
     Fyd = np.zeros((sensor_rows.size, dof_idx.size))
-    ok = sensor_rows >= 0
-    Fyd[ok] = Psi[sensor_rows[ok]]
+    for i, r in enumerate(sensor_rows):
+        if r >= 0:
+            Fyd[i] = Psi[dof_idx, col[int(r)]]
     Fdu = np.zeros((dof_idx.size, actuator_cols.size))
-    ok = actuator_cols >= 0
-    Fdu[:, ok] = Psi[actuator_cols[ok]].T
-    Fdd = Psi[dof_idx]
-    return StaticTerms(Psi, 0.5 * (Fdd + Fdd.T), Fyd, Fdu, X[dof_idx])
+    for j, r in enumerate(actuator_cols):
+        if r >= 0:
+            Fdu[:, j] = Psi[dof_idx, col[int(r)]]
+    Kio = Psi.T @ np.asarray(fe.K @ Psi) if io.size else np.zeros((0, 0))
+    return StaticTerms(fe, T, Ktp, dof_idx, Fyd, Fdu, Psi[dof_idx], _pinv_sym(Kio))
 
 
 def dynamic_stiffness(kind: str, s, sizes, extra=None) -> np.ndarray:
@@ -290,11 +341,59 @@ def woodbury(H0, Gyk, Gkk, Gku, D) -> np.ndarray:
     return H0 - D[:, None, None] * (Gyk @ X)
 
 
+def _log_cost(Q, q, t, out_col):
+    """``mean(log(|Q|^2)^2) / 4`` per candidate of a block, in place in ``q``, ``t``."""
+    np.multiply(Q.real, Q.real, out=q)
+    np.multiply(Q.imag, Q.imag, out=t)
+    q += t
+    np.maximum(q, _TINY, out=q)
+    np.log(q, out=q)
+    np.square(q, out=q)
+    qq = q.reshape(q.shape[0], -1)
+    out_col[:] = qq.sum(axis=1) / (4.0 * qq.shape[1])          # pairwise summation
+
+
+def _screen_rank1(A, iHd, D, Gyk, Gkk, Gku, out):
+    """Rank-1 candidates: ``Q = A - g P``, ``P = G_yk G_ku / H_d``, ``g = D / (1 + D G_kk)``."""
+    nb = max(1, BLOCK // A.size)
+    for a in range(0, out.shape[0], nb):
+        sl = slice(a, a + nb)
+        P = (Gyk[sl, :, :, :1] * Gku[sl, :, :1, :]) * iHd            # (b, nf, ns, na)
+        Q = np.empty_like(P)
+        q, t = np.empty(P.shape, np.float32), np.empty(P.shape, np.float32)
+        for j in range(out.shape[1]):
+            g = D[sl, j] / (1.0 + D[sl, j] * Gkk[sl, :, 0, 0])          # (b, nf)
+            np.multiply(P, g[:, :, None, None], out=Q)
+            np.subtract(A, Q, out=Q)
+            _log_cost(Q, q, t, out[sl, j])
+
+
+def _screen_rank_k(A, iHd, D, Gyk, Gkk, Gku, out):
+    """Rank-k candidates: ``Q = A - D G_yk (I + D G_kk)^-1 G_ku / H_d``."""
+    k = Gkk.shape[-1]
+    eye = np.eye(k, dtype=np.complex64)
+    nb = max(1, BLOCK // A.size)
+    for a in range(0, out.shape[0], nb):
+        sl = slice(a, a + nb)
+        shape = (Gyk[sl].shape[0],) + A.shape
+        Q = np.empty(shape, np.complex64)
+        q, t = np.empty(shape, np.float32), np.empty(shape, np.float32)
+        for j in range(out.shape[1]):
+            d = D[sl, j][:, :, None, None]
+            X = np.linalg.solve(eye + d * Gkk[sl], Gku[sl])             # (b, nf, k, na)
+            np.matmul(Gyk[sl], d * X, out=Q)
+            Q *= iHd
+            np.subtract(A, Q, out=Q)
+            _log_cost(Q, q, t, out[sl, j])
+
+
 def screen_chunk(task) -> np.ndarray:
     """Log-magnitude logLS costs of a chunk of candidates over their size grids.
 
     The screen runs in single precision on a subset of lines: it ranks candidates, the
     finalists are fitted again on all the data (:mod:`sdctrl.diagnosis._candidate_scan`).
+    The candidates are processed in blocks of about :data:`BLOCK` entries, in place, so
+    that the arrays of a block stay in the processor's cache.
 
     Parameters
     ----------
@@ -313,23 +412,8 @@ def screen_chunk(task) -> np.ndarray:
         A, iHd, s = task["A"], task["iHd"], task["s"]
         Gyk, Gkk, Gku = task["Gyk"], task["Gkk"], task["Gku"]
         sizes = task["sizes"]
-        nc, m = sizes.shape
-        k = Gkk.shape[-1]
         D = dynamic_stiffness(task["kind"], s, sizes, task["extra"]).astype(np.complex64)
-        out = np.empty((nc, m))
-        if k == 1:
-            P = (Gyk[..., :, :1] * Gku[..., :1, :]) * iHd          # (nc, nf, ns, na)
-            for j in range(m):
-                g = D[:, j] / (1.0 + D[:, j] * Gkk[:, :, 0, 0])    # (nc, nf)
-                Q = A - g[:, :, None, None] * P
-                a = np.log(np.maximum(Q.real**2 + Q.imag**2, _TINY))
-                out[:, j] = np.mean(a * a, axis=(1, 2, 3), dtype=np.float64) / 4.0
-            return out
-        eye = np.eye(k, dtype=np.complex64)
-        for j in range(m):
-            d = D[:, j][:, :, None, None]
-            X = np.linalg.solve(eye + d * Gkk, Gku)                # (nc, nf, k, na)
-            Q = A - (d * (Gyk @ X)) * iHd
-            a = np.log(np.maximum(Q.real**2 + Q.imag**2, _TINY))
-            out[:, j] = np.mean(a * a, axis=(1, 2, 3), dtype=np.float64) / 4.0
+        out = np.empty(sizes.shape)
+        kernel = _screen_rank1 if Gkk.shape[-1] == 1 else _screen_rank_k
+        kernel(A, iHd, D, Gyk, Gkk, Gku, out)
         return out

@@ -1,0 +1,130 @@
+"""Full fit of one finalist of the candidate scan on all the data (complex logLS, 3.12).
+
+A finalist is a rank-``k`` change of the model (4.22): on the lines ``s``,
+``H = H_0 - G_yk D (I + G_kk D)^-1 G_ku`` (Woodbury, :func:`._lowrank.woodbury`).  Divided by
+the data once, ``H / H_d = A - g(D) P`` with ``A = H_0 / H_d`` and, for rank 1,
+``P = G_yk G_ku / H_d``, ``g = D / (1 + D G_kk)``: an evaluation of the residual
+``Log(H / H_d)`` costs one scaled subtraction and the complex logarithm.  The resonator's
+least-squares fit uses the exact Jacobian of that residual,
+``d Log(q) / dx = -(dg/dD) (dD/dx) P / q`` with ``dg/dD = 1 / (1 + D G_kk)^2``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares, minimize_scalar
+
+from sdctrl._lib.threads import single_thread
+from sdctrl.diagnosis._lowrank import dynamic_stiffness, woodbury
+from sdctrl.diagnosis._residual_map import complex_residual
+
+__all__ = ["fit_task"]
+
+#: the resonator's fit starts on at most this many lines (every k-th)
+PRE_FIT_LINES = 200
+
+
+def _log_q(q):
+    """``Log(q)`` with the magnitude floored as :func:`complex_residual` does."""
+    return complex_residual(q, np.ones(1))
+
+
+def _fit_size(t, resid):
+    """Bounded 1-D minimisation of the cost over ``u = log(base + size)`` around the best grid
+    point of the screen."""
+    def c1(u):
+        r = resid(np.exp(u) - t["base"])
+        return float(np.mean(r.real**2 + r.imag**2))
+
+    u = np.sort(np.log(t["base"] + t["grid"]))
+    j = int(np.searchsorted(u, np.log(t["base"] + t["grid"][t["best"]])))
+    lo = np.log(t["base"] + t["bounds"][0])
+    hi = np.log(t["base"] + t["bounds"][1])
+    a = u[j - 1] if j > 0 else lo
+    b = u[j + 1] if j + 1 < u.size else hi
+    res = minimize_scalar(c1, bounds=(a, b), method="bounded", options={"xatol": 1e-6})
+    return float(res.fun), float(np.exp(res.x) - t["base"]), np.nan, np.nan
+
+
+def _resonator_D(s, x):
+    """``D(s)`` of a resonator at ``x = log(m, w, z)`` and its derivatives along ``x``."""
+    m, w, z = np.exp(x)
+    s2 = s * s
+    num = w * w + 2 * z * w * s
+    den = s2 + num
+    D = m * s2 * num / den
+    dnum = m * s2 * s2 / (den * den)                     # dD / dnum
+    return D, np.stack([D, dnum * w * (2 * w + 2 * z * s), dnum * 2 * z * w * s])
+
+
+def _fit_resonator(t, A, P, Gkk):
+    """Least squares on mass, frequency and damping (log coordinates), exact Jacobian: first
+    on every k-th line (at most :data:`PRE_FIT_LINES`), then from there on all the lines
+    (a few iterations: the optimum of all the lines is sought from a point next to it)."""
+    x0 = np.log([t["grid"][t["best"]], t["omega"], t["zeta"]])
+    lb = [np.log(t["bounds"][0]), x0[1] - 0.3, np.log(1e-5)]
+    ub = [np.log(t["bounds"][1]), x0[1] + 0.3, np.log(0.5)]
+    x = np.clip(x0, lb, ub)
+    k = -(-t["s"].size // PRE_FIT_LINES)
+    if k > 1:
+        x = _least_squares(t["s"][::k], A[::k], P[::k], Gkk[::k], x, lb, ub).x
+    res = _least_squares(t["s"], A, P, Gkk, x, lb, ub)
+    m, w, z = np.exp(res.x)
+    return float(np.mean(res.fun**2) * 2), float(m), float(w), float(z)
+
+
+def _least_squares(s, A, P, Gkk, x0, lb, ub):
+    """The resonator's least-squares fit on lines ``s`` from ``x0``."""
+    def parts(x):
+        D, dD = _resonator_D(s, x)
+        den = 1.0 + D * Gkk
+        q = A - (D / den)[:, None, None] * P
+        return q, dD / (den * den)
+
+    def rv(x):
+        r = _log_q(parts(x)[0]).reshape(-1)
+        return np.r_[r.real, r.imag]
+
+    def jac(x):
+        q, dg = parts(x)
+        Pq = P / q
+        cols = [(-g[:, None, None] * Pq).reshape(-1) for g in dg]
+        return np.stack([np.r_[c.real, c.imag] for c in cols], axis=1)
+
+    return least_squares(rv, x0, jac=jac, bounds=(lb, ub), x_scale=[1, 0.01, 1],
+                         xtol=1e-10, ftol=1e-12, max_nfev=100)
+
+
+def fit_task(t) -> tuple:
+    """Full fit of one finalist on all the data (complex logLS); runs on any executor.
+
+    Parameters
+    ----------
+    t : dict
+        ``H0``, ``Hd``, ``s`` (rad/s), ``Gyk``, ``Gkk``, ``Gku`` (on all lines), ``kind``,
+        ``base``, ``bounds``, ``grid`` (screen sizes), ``best`` (index in it) and, for a
+        resonator, ``omega`` (rad/s) and ``zeta`` (its screen tuning).
+
+    Returns
+    -------
+    tuple
+        ``(cost, size, omega, zeta)`` (NaN omega/zeta for non-resonators).
+    """
+    with single_thread():
+        H0, Hd, s = t["H0"], t["Hd"], t["s"]
+        Gyk, Gkk, Gku, kind = t["Gyk"], t["Gkk"], t["Gku"], t["kind"]
+        A = H0 / Hd
+        if Gkk.shape[1] == 1:
+            P = Gyk[:, :, :1] * Gku[:, :1, :] / Hd
+            g11 = Gkk[:, 0, 0]
+            if kind == "resonator":
+                return _fit_resonator(t, A, P, g11)
+
+            def resid(size):
+                D = dynamic_stiffness(kind, s, size)
+                return _log_q(A - (D / (1.0 + D * g11))[:, None, None] * P)
+        else:
+            def resid(size):
+                D = dynamic_stiffness(kind, s, size)
+                return complex_residual(woodbury(H0, Gyk, Gkk, Gku, D), Hd)
+        return _fit_size(t, resid)

@@ -1,0 +1,109 @@
+"""The candidate scan's low-rank terms (issue 27) against the dense reference on a small
+structure: static terms from the test's own static corrections (symmetry of ``Psi``), the
+exact static correction of a finalist by one solve, the compact load shapes, the k-d tree
+pairs, and the transfers of every candidate -- each equal to the dense computation (every
+candidate's load a dense column on every node translation, ``Psi`` on all of them) to 1e-8.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+import sdctrl as sd
+from sdctrl.diagnosis._candidate_scan import _single, _transfers, setup
+from sdctrl.diagnosis._candidates import _pairs, candidate_groups
+from sdctrl.diagnosis._placed_data import place
+
+RTOL = 1e-8
+
+
+def _close(a, b):
+    return np.abs(a - b).max() <= RTOL * np.abs(b).max()
+
+
+@pytest.fixture(scope="module")
+def scan():
+    s = sd.testbeds.structure("plate")
+    fe = s.fe()
+    f, _ = fe.modes(40)
+    n = int(np.sum(f < 3 * s.band[1]))
+    nm = fe.normal_mode_model(fe.point(list(s.shakers)), list(s.sensors), n,
+                              actuators=list(s.shakers))
+    freq = np.linspace(*s.band, 40)
+    placed = place(nm, nm.frf(freq, "acceleration"), None)
+    cand = candidate_groups(fe)
+    S = setup(nm, fe, placed, cand)
+    # dense reference: Psi = K^-1 - T (T^T K T)^+ T^T on every DOF
+    T = S.T
+    Kt = T.T @ np.asarray(fe.K @ T)
+    Psi = fe.static_response(np.eye(fe.N)) - T @ np.linalg.pinv(Kt) @ T.T
+    return fe, nm, placed, cand, S, Psi
+
+
+def _dense_beta(fe, group, dof_idx):
+    """Every candidate's load shape as a dense (nd, k) block, from the FE model itself."""
+    if group.name == "pairs":
+        return np.stack([fe.strut(a, b)[dof_idx] for a, b in group.locations])
+    if group.name == "nodes":
+        out = []
+        for node in group.locations:
+            B = np.zeros((fe.N, 3))
+            for j, ax in enumerate("xyz"):
+                if f"{node}.{ax}" in fe.dofs:
+                    B[fe.dofs.index(f"{node}.{ax}"), j] = 1.0
+            out.append(B[dof_idx])
+        return np.stack(out)
+    return np.stack([np.eye(fe.N)[dof_idx][:, [fe.dofs.index(lab)]] for lab in group.locations])
+
+
+def test_static_terms_of_the_test_loads_equal_the_dense_ones(scan):
+    fe, nm, placed, (dof_idx, _, _), S, Psi = scan
+    rows = fe.dof_index(list(nm.sensors))
+    cols = fe.dof_index(list(nm.actuators))
+    assert _close(S.static.Fyd, Psi[np.ix_(rows, dof_idx)])
+    assert _close(S.static.Fdu, Psi[np.ix_(dof_idx, cols)])
+
+
+@pytest.mark.parametrize("name", ["pairs", "nodes", "dofs"])
+def test_compact_loads_and_transfers_equal_the_dense_ones(scan, name):
+    fe, nm, placed, (dof_idx, groups, _), S, Psi = scan
+    g = groups[name]
+    beta = _dense_beta(fe, g, dof_idx)                              # (nc, nd, k)
+    assert np.array_equal(np.stack([g.dense(c, dof_idx.size) for c in range(g.size)]), beta)
+    s = placed.s
+    Gyk, Gkk, Gku = _transfers(S, placed, s, g)
+    Fd = Psi[np.ix_(dof_idx, dof_idx)]
+    Fy = Psi[np.ix_(fe.dof_index(list(nm.sensors)), dof_idx)][placed.rows]
+    Fu = Psi[np.ix_(dof_idx, fe.dof_index(list(nm.actuators)))][:, placed.cols]
+    for c in range(0, g.size, max(1, g.size // 7)):
+        b = beta[c]
+        bm = S.phid.T @ b
+        assert _close(Gyk[c], S.res.transfer(s, S.C.T, bm) + Fy @ b)
+        assert _close(Gku[c], S.res.transfer(s, bm, S.B) + b.T @ Fu)
+        dyn = S.res.transfer(s, bm, bm)
+        proj = Gkk[c, 0] - dyn[0]
+        exact = b.T @ Fd @ b
+        # the screen's own flexibility: projected on the test's static corrections, so
+        # between 0 and the exact one (Rayleigh-Ritz), up to round-off
+        floor = -1e-6 * np.abs(exact).max()
+        assert np.abs(proj.imag).max() <= RTOL * np.abs(exact).max()
+        assert np.all(np.linalg.eigvalsh(0.5 * (proj + proj.T).real) >= floor)
+        assert np.all(np.linalg.eigvalsh(exact - proj.real) >= floor)
+        assert _close(Gkk[c] - proj, dyn)
+        (g1, g2, g3), (_, psi, Fb) = _single(S, placed, g, c)
+        assert _close(Fb, exact) and _close(psi[dof_idx], Fd @ b)
+        assert _close(g1, Gyk[c]) and _close(g3, Gku[c]) and _close(g2, dyn + exact)
+
+
+def test_kd_tree_pairs_equal_the_brute_force_pairs(scan):
+    fe = scan[0]
+    elems, others = _pairs(fe, None)
+    L = max(np.linalg.norm(np.subtract(fe.nodes[a], fe.nodes[b])) for a, b in elems)
+    seen = {frozenset(e) for e in elems}
+    brute = [(a, b) for a, b in itertools.combinations(list(fe.nodes), 2)
+             if frozenset((a, b)) not in seen
+             and 0 < np.linalg.norm(np.subtract(fe.nodes[a], fe.nodes[b])) <= 1.5 * L]
+    assert others == brute and len(others) > 0
