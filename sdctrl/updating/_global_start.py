@@ -183,8 +183,30 @@ def frequency_start(prob, box: StartBox, solve) -> tuple[list, int]:
 
 
 def solve_bounded(fun, x0, lo, hi, scale, diff_step, max_nfev, what="logLS", f_scale=None):
-    """Bounded trust-region least squares (soft-L1 loss of scale ``f_scale`` when given);
-    warns when the evaluation limit stops it.  ``(x, nfev)``."""
+    """Bounded trust-region least squares; warns when the evaluation limit stops it.
+
+    Parameters
+    ----------
+    fun : callable
+        Residual vector of ``p``.
+    x0, lo, hi, scale : ndarray, shape (npar,)
+        Start, bounds and typical change of each parameter.
+    diff_step : float
+        Relative finite-difference step.
+    max_nfev : int
+        Evaluation limit.
+    what : str
+        Stage named in the warning.
+    f_scale : float, optional
+        Soft-L1 loss of this scale (robust to outliers); default the plain squares.
+
+    Returns
+    -------
+    x : ndarray, shape (npar,)
+        The solution, within the bounds.
+    nfev : int
+        Evaluations.
+    """
     robust = {} if f_scale is None else {"loss": "soft_l1", "f_scale": float(f_scale)}
     res = least_squares(fun, x0, bounds=(lo, hi), x_scale=scale, diff_step=diff_step,
                         ftol=1e-12, xtol=1e-10, gtol=1e-12, max_nfev=max_nfev, method="trf",
