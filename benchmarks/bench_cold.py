@@ -30,6 +30,8 @@ sdctrl, before         4.20 s  0.41 s  0.51   first call imported scipy.signal (
 EMA, same run          8.28 s  5.20 s
 sdctrl, after          2.80 s  0.63 s  0.24   numpy peak finders, scipy.special chdtri
 EMA, same run          11.64 s 5.66 s
+sdctrl, issue 27 run    7.31 s  2.37 s  0.69   load 13-15 (2 cores, 4 sessions): the
+EMA, same run          10.65 s 11.21 s        fresh figure is imports under load (warm 0.21)
 =====================  ======  ======  =====  =========================================
 
 fe case (N = 100,224, 20 modes, 2 runs, load ~9-11): ``FEModel(M, K).modes(20)`` fresh 153 s,

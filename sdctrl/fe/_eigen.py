@@ -20,7 +20,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 __all__ = ["DENSE_MAX", "RIGID_RTOL", "check_request", "diagonal_scale", "eigensolve",
-           "rigid_modes", "shift_invert"]
+           "rigid_modes", "shift_invert", "stiffness_factor"]
 
 #: eigenvalues below ``RIGID_RTOL * max(diag K / diag M)`` are rigid-body modes
 RIGID_RTOL = 1e-12
@@ -72,7 +72,46 @@ def check_request(n, N: int, method: str) -> str:
     return method
 
 
-def eigensolve(K, M, n: int, method: str, sigma: float | None = None):
+def stiffness_factor(K):
+    """``L D L^T`` of a sparse ``K`` that is positive definite (a fixed structure), else None.
+
+    One symmetric-mode sparse LU without pivoting (minimum degree ordering of ``K``): every
+    pivot positive, none below :data:`RIGID_RTOL` times the largest diagonal entry (the
+    rigid-body test of :func:`rigid_modes` on the pivots), proves ``K`` positive definite.
+    That one factorisation is then the static solver (``K^-1``, 2.21), the shift-invert
+    operator of the modes at ``sigma = 0`` and the proof that the structure has no
+    rigid-body mode: a fixed structure is factorised once for all three.
+
+    Parameters
+    ----------
+    K : sparse matrix, shape (N, N)
+        Stiffness.
+
+    Returns
+    -------
+    scipy.sparse.linalg.SuperLU or None
+        None for a dense ``K`` or one that is not (safely) positive definite: free
+        structures keep the negative shift and the inertia-relief solver.
+    """
+    if not sp.issparse(K):
+        return None
+    A = sp.csc_matrix(K)
+    d = np.asarray(A.diagonal())
+    if d.size == 0 or np.any(d <= 0):
+        return None
+    try:
+        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    except RuntimeError:
+        return None
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    if np.any(lu.U.diagonal() <= RIGID_RTOL * float(d.max())):
+        return None
+    return lu
+
+
+def eigensolve(K, M, n: int, method: str, sigma: float | None = None, factor=None):
     """Lowest ``n`` eigenpairs of ``K phi = M phi lambda``, mass-normalised, signs fixed.
 
     Parameters
@@ -85,7 +124,11 @@ def eigensolve(K, M, n: int, method: str, sigma: float | None = None):
         ``scipy.linalg.eigh`` on a subset, or shift-invert ``eigsh`` followed by a
         Rayleigh-Ritz clean-up (exact M-orthonormality, accurate eigenvalues).
     sigma : float, optional
-        Shift (rad/s)^2 of the sparse solver; default ``-1e-6 median(diag K / diag M)``.
+        Shift (rad/s)^2 of the sparse solver; default ``-1e-6 median(diag K / diag M)``,
+        or 0 with ``factor``.
+    factor : SuperLU, optional
+        :func:`stiffness_factor` of ``K``: with ``sigma=None`` the sparse solver shifts at 0
+        and reuses it instead of factorising ``K - sigma M``.
 
     Returns
     -------
@@ -102,6 +145,8 @@ def eigensolve(K, M, n: int, method: str, sigma: float | None = None):
             raise ValueError(f"n must be < N - 1 = {N - 1} for the sparse eigensolver, "
                              f"got {n}; use method='dense'")
         median, scale = diagonal_scale(K, M)
+        if sigma is None and factor is not None:
+            return _signs(*_sparse(K, M, n, 0.0, factor))
         if sigma is None:
             sigma = -1e-6 * median
         elif abs(sigma) > 1e12 * scale:
@@ -110,6 +155,11 @@ def eigensolve(K, M, n: int, method: str, sigma: float | None = None):
                              "sigma M to machine precision; give sigma near the squared circular "
                              "frequency (2 pi f)^2 of the wanted modes, or leave it None")
         lam, phi = _sparse(K, M, n, float(sigma))
+    return _signs(lam, phi)
+
+
+def _signs(lam, phi):
+    """Eigenpairs sorted, the largest entry of each shape positive."""
     order = np.argsort(lam)
     lam, phi = lam[order], phi[:, order]
     idx = np.argmax(np.abs(phi), axis=0)
@@ -160,14 +210,15 @@ def shift_invert(K, M, sigma: float) -> spla.LinearOperator:
     return spla.LinearOperator(A.shape, matvec=lu.solve, dtype=float)
 
 
-def _sparse(K, M, n, sigma):
+def _sparse(K, M, n, sigma, factor=None):
     N = M.shape[0]
     v0 = np.random.default_rng(0).standard_normal(N)
     K = sp.csc_matrix(K)
     M = sp.csc_matrix(M)
+    op = (shift_invert(K, M, sigma) if factor is None
+          else spla.LinearOperator(K.shape, matvec=factor.solve, dtype=float))
     try:
-        lam, phi = spla.eigsh(K, k=n, M=M, sigma=sigma, which="LM", v0=v0,
-                              OPinv=shift_invert(K, M, sigma),
+        lam, phi = spla.eigsh(K, k=n, M=M, sigma=sigma, which="LM", v0=v0, OPinv=op,
                               ncv=min(N, max(2 * n + 1, n + 20)))
     except spla.ArpackError as exc:
         raise ValueError(f"the sparse eigensolver failed for n={n}, sigma={sigma:g} (rad/s)^2 "

@@ -256,6 +256,12 @@ class FEModel(ElementGroups):
             self._cache["scale"] = eigen.diagonal_scale(self.K, self.M)
         return self._cache["scale"]
 
+    def _factor(self):
+        """The one factorisation of a fixed sparse model (:func:`eigen.stiffness_factor`)."""
+        if "factor" not in self._cache:
+            self._cache["factor"] = eigen.stiffness_factor(self.K)
+        return self._cache["factor"]
+
     def _rigid_threshold(self) -> float:
         return RIGID_RTOL * self._scale()[1]
 
@@ -266,7 +272,8 @@ class FEModel(ElementGroups):
         sigma = check_scalar(sigma, "sigma", optional=True)
         key = ("modes", method, sigma, int(n))
         if key not in self._cache:
-            self._cache[key] = eigen.eigensolve(self.K, self.M, int(n), method, sigma)
+            fac = self._factor() if method == "sparse" and sigma is None else None
+            self._cache[key] = eigen.eigensolve(self.K, self.M, int(n), method, sigma, fac)
         return self._cache[key]
 
     def modes(self, n: int, method: str = "auto", sigma: float | None = None):
@@ -281,9 +288,9 @@ class FEModel(ElementGroups):
             ``"sparse"``: shift-invert ``scipy.sparse.linalg.eigsh`` followed by a
             Rayleigh-Ritz clean-up; ``"auto"``: dense up to :data:`DENSE_MAX` DOFs.
         sigma : float, optional
-            Shift (rad/s)^2 of the sparse solver.  The default is negative,
-            ``-1e-6 * median(diag K / diag M)``, so that ``K - sigma M`` is positive
-            definite even for free structures (rigid-body modes at zero frequency).
+            Shift (rad/s)^2 of the sparse solver.  Default: 0 when ``K`` is positive
+            definite (its one factorisation also gives statics), else (free structures)
+            ``-1e-6 * median(diag K / diag M)``, so that ``K - sigma M`` is definite.
 
         Returns
         -------
@@ -307,16 +314,19 @@ class FEModel(ElementGroups):
         -------
         ndarray, shape (N, r)
         """
-        if "rigid" not in self._cache:
-            self._cache["rigid"] = eigen.rigid_modes(self._eigen, self.N,
-                                                     self._rigid_threshold())
+        if "rigid" not in self._cache:                # none when K is positive definite
+            self._cache["rigid"] = (
+                np.zeros((self.N, 0)) if self._factor() is not None
+                else eigen.rigid_modes(self._eigen, self.N, self._rigid_threshold()))
         return self._cache["rigid"].copy()
 
     # --- static solutions (sdctrl.fe._static) ---------------------------------------------
     def _static_solver(self):
         if "static_solver" not in self._cache:
-            self._cache["static_solver"] = statics.static_solver(self.K, self.M,
-                                                                self.rigid_modes())
+            fac = self._factor()
+            self._cache["static_solver"] = (
+                fac.solve if fac is not None
+                else statics.static_solver(self.K, self.M, self.rigid_modes()))
         return self._cache["static_solver"]
 
     def static_response(self, b) -> np.ndarray:

@@ -9,7 +9,8 @@ cost (3.12).  Damping follows the choice of :func:`sdctrl.update`:
 - ``"modal"``: modal damping set on the reduced model's normal modes at a reference point
   ``p_ref``: test modes paired by MAC carry their identified damping (the full identified
   ``Gamma`` block between paired modes when normal modes were identified, signs following
-  the shapes), the other modes the mean identified damping ratio (or a given ratio).
+  the shapes), the other modes the mean identified damping ratio; a given ratio holds on
+  every mode (identified damping does not override it).
   The reduced damping matrix ``M X Gamma X^T M`` is then fixed in the reduced coordinates,
   so the cost stays smooth in ``p``; :meth:`UpdateProblem.damped_at` moves the reference.
 """
@@ -286,8 +287,8 @@ class UpdateProblem:
         M = self.rm.matrices(p)[0]
         w2, X = self.rm.modes(p)
         w = np.sqrt(np.clip(w2, 0, None))
-        if self.modes is None or not self.modes.n:
-            G = np.diag(2 * self.ratio * w)
+        if self.ratio is not None or self.modes is None or not self.modes.n:
+            G = np.diag(2 * self.ratio * w)         # a given ratio holds on every mode
         else:
             G = self._modal_gamma(p, w)
         return replace(self, rm=self.rm.with_damping(damping_from_modal(M, X, G)), p_ref=p.copy())
@@ -295,7 +296,7 @@ class UpdateProblem:
     def _modal_gamma(self, p, w) -> np.ndarray:
         tm = self.modes
         index, mac, _f, X = self.pairing(p)
-        zmean = float(np.mean(tm.damping)) if self.ratio is None else self.ratio
+        zmean = float(np.mean(tm.damping))
         G = np.diag(2 * zmean * w)
         ok = mac >= MAC_DAMPING
         k = index[ok]

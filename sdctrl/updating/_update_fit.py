@@ -27,7 +27,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
@@ -36,6 +35,7 @@ from sdctrl._lib.validate import check_int, check_scalar
 from sdctrl.fe._parameters import Parameter
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.updating._fit_floor import FitFloor, fit_floor
+from sdctrl.updating._global_start import StartBox, fit_stages, solve_bounded
 from sdctrl.updating._placed_test import measured_modes, place_test
 from sdctrl.updating._problem import apply_parameters, build_problem
 from sdctrl.updating._update_statistics import fitted_std
@@ -226,16 +226,6 @@ def damping_choice(fe, damping):
     return ("modal", z), None
 
 
-def _solve(fun, x0, lo, hi, scale, diff_step, max_nfev, what="logLS"):
-    """Bounded trust-region least squares; warns when the evaluation limit stops it."""
-    res = least_squares(fun, x0, bounds=(lo, hi), x_scale=scale, diff_step=diff_step,
-                        ftol=1e-12, xtol=1e-10, gtol=1e-12, max_nfev=max_nfev, method="trf")
-    if res.status == 0:
-        warnings.warn(f"update: the {what} stage stopped at its evaluation limit "
-                      f"(max_nfev={max_nfev}) before converging", RuntimeWarning, stacklevel=4)
-    return np.clip(res.x, lo, hi), int(res.nfev)
-
-
 def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two-stage",
            identified=None, fmax: float | None = None, loads: str = "modal",
            max_nfev: int | None = None, progress: bool | None = None) -> UpdateResult:
@@ -334,17 +324,7 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             p = np.zeros(npar)
             cost_before = prob.cost(p)
             before = prob.pairing(p) if modes.n else None
-            if strategy in ("two-stage", "frequencies"):
-                p, p_n = _frequency_stage(prob, p, lo, hi, scale, nfev_max)
-                prob = prob.damped_at(p)
-                stages.append({"stage": "frequencies (4.8)", "values": p.copy(),
-                               "cost": prob.cost(p), "nfev": p_n})
-                bar.update()
-            if strategy in ("two-stage", "logls"):
-                p, p_n = _solve(prob.residual, p, lo, hi, scale, 1e-6, nfev_max)
-                stages.append({"stage": "logLS (3.12) on the reduced model", "values": p.copy(),
-                               "cost": prob.cost(p), "nfev": p_n})
-                bar.update()
+            prob, p = fit_stages(prob, StartBox(lo, hi, scale, nfev_max), strategy, stages, bar)
             fe1, prob1, p, cost_after = _resolve(fe, setup, prob, p,
                                                  (lo, hi, scale, nfev_max), stages, strategy)
             bar.update()
@@ -376,15 +356,6 @@ def _floor(model, measured, modes, cost_before, cost) -> FitFloor:
     if fit.above:
         warnings.warn(f"update: the final cost is {fit.text}", RuntimeWarning, stacklevel=3)
     return fit
-
-
-def _frequency_stage(prob, p, lo, hi, scale, nfev_max):
-    """Stage 1: MAC-paired frequencies (4.8)-(4.9)."""
-    if prob.modes.n < prob.npar:
-        warnings.warn(f"update: {prob.modes.n} test modes for {prob.npar} parameters; the "
-                      "frequency stage is skipped", stacklevel=3)
-        return p, 0
-    return _solve(prob.frequency_residual, p, lo, hi, scale, 1e-4, nfev_max, "frequency")
 
 
 @dataclass(frozen=True, eq=False)
@@ -444,7 +415,7 @@ def _resolve(fe, setup: UpdateSetup, prob, p, opts, stages, strategy):
                        "nfev": 1})
         if strategy == "frequencies" or cost <= (1 + RESOLVE_TOL) * reduced_cost + 1e-12:
             return fe1, prob1, p, cost
-        q, n = _solve(prob1.residual, q0, lo - p, hi - p, scale, 1e-6, nfev_max)
+        q, n = solve_bounded(prob1.residual, q0, lo - p, hi - p, scale, 1e-6, nfev_max)
         p = np.clip(p + q, lo, hi)
         reduced_cost = prob1.cost(q)
         stages.append({"stage": "logLS around the new solution", "values": p.copy(),
