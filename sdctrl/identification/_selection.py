@@ -396,9 +396,6 @@ class AutoSelection:
         tried_side = {-1: None, 1: None}     # (in-band poles, poles) at the last failed trial
         for _ in range(rounds):
             w, z, side, ev, info = state
-            import os, sys
-            if os.environ.get("SDDBG"):
-                print("round", w.size, np.bincount(side + 1, minlength=3), ev["cost"] / self.prob.normY2, self.log[-3:], file=sys.stderr, flush=True)
             if bar is not None:
                 bar.set_postfix_str(f"poles={w.size}, cost={ev['cost'] / self.prob.normY2:.2e}")
             # the significance test judges poles against the residual as noise: the tails
