@@ -22,26 +22,27 @@ from family_struts import figures
 #: by the hybrid and by the wrong FE (seed 1, 400 lines; normal modes keep the out-of-band
 #: poles as residual dynamics)
 MEASURED = {
-    ('truss', 0.0): (0.01133, 0.0076, 128.57656, 7.81307, 24.94447, 0.01904, 0.0473),
+    ('truss', 0.0): (0.01133, 0.0076, 128.57656, 7.81307, 24.94447, 0.01902, 0.0473),
     ('truss', 0.01): (0.0166, 0.01354, 106.61014, 7.76822, 23.78858, 0.01884, 0.0473),
-    ('truss_high', 0.0): (0.26527, 0.26551, 9.10863, 3.76885, 20.14118, 0.02913, 0.11467),
-    ('truss_high', 0.01): (0.25897, 0.26353, 9.42674, 3.76249, 20.36299, 0.02874, 0.11467),
-    ('ladder', 0.0): (0.16791, 0.0472, 9.25807, 7.48272, 4.29171, 0.00655, 0.04428),
-    ('ladder', 0.01): (0.17511, 0.04787, 8.8769, 7.25226, 4.18219, 0.00685, 0.04428),
-    ('plate', 0.0): (0.02964, 0.00476, 33.93653, 9.33186, 33.90473, 0.00062, 0.02547),
-    ('plate', 0.01): (0.0466, 0.10664, 21.06777, 8.48073, 30.22876, 0.00104, 0.02547),
-    ('cluster', 0.0): (0.53273, 1.01652, 0.39805, 0.41418, 0.05357, 0.00067, 0.11131),
+    ('truss_high', 0.0): (0.02616, 0.00276, 56.60995, 5.32691, 20.18824, 0.02952, 0.11467),
+    ('truss_high', 0.01): (0.0282, 0.00405, 54.68706, 5.28571, 19.43794, 0.02933, 0.11467),
+    ('ladder', 0.0): (0.1648, 0.01135, 9.4335, 7.65944, 4.76665, 0.00851, 0.04428),
+    ('ladder', 0.01): (0.1692, 0.01248, 9.18804, 7.52409, 4.8667, 0.00904, 0.04428),
+    ('plate', 0.0): (0.02964, 0.00476, 33.93653, 9.33186, 34.48008, 0.00062, 0.02547),
+    ('plate', 0.01): (0.03113, 0.00459, 31.80485, 9.16996, 33.46086, 0.00087, 0.02547),
+    ('cluster', 0.0): (0.53273, 1.01652, 0.39805, 0.41418, 0.06656, 0.00067, 0.11131),
     ('cluster', 0.01): (0.4907, 1.66461, 0.43176, 0.45138, 0.10395, 0.46818, 0.11131),
 }
 #: where each member stands against the issue's targets (asserted where met; the gaps, locked
 #: above, are the open part of issue 22): the nominal hybrid is above the normal-mode model
-#: on truss, ladder and plate (its FE modes stand in for the out-of-band poles the
+#: on every member but the cluster (its FE modes stand in for the out-of-band poles the
 #: normal-mode model keeps as identified residual dynamics); the D-strut is short of 12x on
-#: truss_high (9.1x) and the ladder (9.3x), the untested shaker on the ladder (4.3x),
-#: truss_high's RMS error (2.9%) short of 2%; the cluster's identification finds 3 of its 5
-#: modes
+#: the ladder (9.4x), the untested shaker on the ladder (4.8x), truss_high's RMS error (2.9%)
+#: short of 2%; the cluster's identification misses blade modes (400 lines, 0.1 Hz apart for
+#: modes 0.04-0.06 Hz apart).  Since identification adds out-of-band poles while they are
+#: significant, truss_high's D-strut went from 9.1x to 56.6x (nominal 0.265 -> 0.026)
 TARGETS = {
-    "dstrut": {"truss", "plate"},
+    "dstrut": {"truss", "truss_high", "plate"},
     "broken": {"truss", "truss_high", "ladder", "plate"},
     "shaker": {"truss", "truss_high", "plate"},
     "rms": {"truss", "ladder", "plate"},

@@ -20,18 +20,21 @@ import sdctrl as sd
 from sdctrl.identification._mode_split import OUT_OF_BAND
 from sdctrl.updating import logls
 
-#: measured mean logLS of nm against the data (noise-free, 1% noise; seed 1, 400 lines)
+#: measured mean logLS of nm against the data (noise-free, 1% noise; seed 1, 400 lines), with
+#: the identification that adds out-of-band poles while they are significant (before:
+#: truss_high 0.264 / 0.262, ladder 0.0475 / 0.0477, plate 1% 0.107)
 MEASURED = {
     ("truss", 0.0): 0.00719, ("truss", 0.01): 0.01320,
-    ("truss_high", 0.0): 0.26408, ("truss_high", 0.01): 0.26203,
-    ("ladder", 0.0): 0.04751, ("ladder", 0.01): 0.04765,
-    ("plate", 0.0): 0.00503, ("plate", 0.01): 0.10662,
+    ("truss_high", 0.0): 0.00135, ("truss_high", 0.01): 0.00281,
+    ("ladder", 0.0): 0.01078, ("ladder", 0.01): 0.01198,
+    ("plate", 0.0): 0.00503, ("plate", 0.01): 0.00515,
     ("cluster", 0.0): 1.01332, ("cluster", 0.01): 1.66780,
 }
-#: members short of the acceptance bound (locked instead): none at these figures -- the bound
-#: is relative to the identified model's error, which is itself far from the noise floor on
-#: truss_high, ladder and the cluster (issue 22's identification part is open)
-GAP = set()
+#: members short of the acceptance bound max(3 x identified, 0.01) (locked instead): the
+#: ladder, 8% and 20% above 0.01 -- its identified model is exact (4e-11), the normal-mode
+#: model's error is the properness enforcement's (3.44: residue error 1.4%, at the 64.2 Hz
+#: mode, actuator 1)
+GAP = {("ladder", 0.0), ("ladder", 0.01)}
 
 
 @functools.cache

@@ -87,9 +87,13 @@ def test_hammer_survey_frf_error(survey):
                                                                                  axis=(1, 2))
     assert np.median(rel) < 0.02
     # the sign flips between hammer columns are carried by the residues
-    assert np.all(cm.singular_value_ratios()[:, 1] < 0.15)
+    # (in band: the poles fitted outside the band, issue 22, stand for the 9 and 150 Hz
+    # modes and the tails of the rest, not dyadic)
+    inb = cm.in_band
+    assert inb.sum() == 15 and np.all(cm.singular_value_ratios()[inb, 1] < 0.15)
     std = cm.residue_std(frf)
-    assert std.shape == cm.residues.shape and np.all(std > 0)
+    assert std.shape == cm.residues.shape and np.all(std[inb] > 0)
+    assert np.all(np.isfinite(cm.frequency_std[inb]) & (cm.frequency_std[inb] > 0))
     sys = cm.to_statespace()
     assert sys.ninputs == 75 and sys.noutputs == 3
     assert np.abs(sd.FRF.from_system(sys, frf.freq).H - cm.frf(frf.freq).H).max() < \
@@ -101,8 +105,17 @@ def test_hammer_survey_fit_is_orientation_free(survey):
     one fit (common poles, full residue matrices): ``identify`` needs no transposition."""
     frf, _lam, _R, _Ha, cm = survey
     ct = sd.identify(frf.transpose(), band=BAND, progress=False)
-    assert ct.n == cm.n == 15                              # measured: equal to 1e-15
-    np.testing.assert_allclose(ct.poles, cm.poles, rtol=1e-9)
-    np.testing.assert_allclose(ct.residues, np.swapaxes(cm.residues, 1, 2), rtol=1e-6,
-                               atol=1e-9 * np.abs(cm.residues).max())
+    # 15 in band; two heavily damped poles above it (issue 22) carry the 150 Hz mode's
+    # tail, their parameters not determined by the data (statistics NaN)
+    assert ct.n == cm.n and cm.in_band.sum() == 15
+    np.testing.assert_array_equal(ct.in_band, cm.in_band)
+    inb = cm.in_band
+    np.testing.assert_allclose(ct.poles[inb], cm.poles[inb], rtol=1e-9)   # measured 1e-16
+    np.testing.assert_allclose(ct.poles, cm.poles, rtol=1e-8)             # measured 2.2e-9
+    np.testing.assert_allclose(ct.residues[inb], np.swapaxes(cm.residues[inb], 1, 2),
+                               rtol=1e-6, atol=1e-9 * np.abs(cm.residues).max())
+    np.testing.assert_allclose(ct.residues, np.swapaxes(cm.residues, 1, 2),   # 3.4e-5
+                               rtol=0, atol=2e-4 * np.abs(cm.residues).max())
+    assert np.all(np.isnan(cm.frequency_std[~inb]))
+    assert np.all(np.isfinite(cm.frequency_std[inb]) & (cm.frequency_std[inb] > 0))
     assert ct.cost == pytest.approx(cm.cost, rel=1e-9)

@@ -131,27 +131,44 @@ def test_survey_noise_varies_by_line():
     assert np.all(noisy.frf.coherence <= 1) and noisy.frf.coherence[band].min() < 0.5
 
 
+#: true in-band modes the survey's identification merges with a neighbour (locked gap): the
+#: cluster's blade pair at 10.2160 / 10.2179 Hz (damping 0.35% / 1.3%), a third of a line
+#: apart, is one pole since the significance test counts the noise correlation that the
+#: exponential window puts between lines (issue 22; before, every mode was found but
+#: windowed truss_high surveys filled their band with poles fitting that correlated noise)
+MERGED = {"cluster": 1}
+
+
+def _distinct(cm, sv):
+    """True modes whose nearest identified pole is nearest to no other true mode."""
+    j = _match(cm, sv)
+    return np.array([np.sum(j == i) == 1 for i in j])
+
+
 @pytest.mark.parametrize("name", FAMILY)
 def test_identification_finds_every_mode(name):
     sv, cm = _surveyed(name)
     j = _match(cm, sv)
-    assert len(set(j)) == sv.poles.size and np.all(cm.in_band[j])
-    np.testing.assert_allclose(np.abs(cm.poles[j]), np.abs(sv.poles), rtol=2e-4)
+    assert len(set(j)) == sv.poles.size - MERGED.get(name, 0) and np.all(cm.in_band[j])
+    one = _distinct(cm, sv)
+    np.testing.assert_allclose(np.abs(cm.poles[j[one]]), np.abs(sv.poles[one]), rtol=2e-4)
     # shape at the hit points: the residue's dominant right factor (R = c psi psi^T b)
-    mac = [_mac(np.linalg.svd(cm.residues[i])[2][0], sv.shapes[:, k]) for k, i in enumerate(j)]
+    mac = [_mac(np.linalg.svd(cm.residues[i])[2][0], sv.shapes[:, k]) for k, i in enumerate(j)
+           if one[k]]
     # measured: every MAC >= 0.9999; fit error (cost) 0.15% truss and truss_high, 0.43%
     # ladder, 0.89% plate, 0.39% cluster
     assert min(mac) > 0.99, mac
     assert cm.cost < 0.02
     # no spurious in-band mode
-    assert cm.in_band.sum() == sv.poles.size
+    assert cm.in_band.sum() == sv.poles.size - MERGED.get(name, 0)
 
 
 @pytest.mark.parametrize("name", FAMILY)
 def test_damping_corrected_for_the_window(name):
     sv, cm = _surveyed(name)
-    j = _match(cm, sv)
-    zeta = -sv.poles.real / np.abs(sv.poles)
+    one = _distinct(cm, sv)
+    j = _match(cm, sv)[one]
+    zeta = -sv.poles[one].real / np.abs(sv.poles[one])
     err = np.abs(cm.damping[j] / zeta - 1)
     # the data's poles are the structure's shifted by -1/tau: uncorrected damping
     raw = cm.poles[j] - 1 / cm.exponential_tau
@@ -220,9 +237,10 @@ def test_normal_modes_with_complex_residual_dynamics(name):
             keep[j] = True
         except ValueError as exc:                # named, with the thesis's equation
             assert "(3.45" in str(exc) or "(3.52" in str(exc), exc
-    # measured: truss_high keeps its six in-band modes, cluster all but the resonator
+    # measured: truss_high keeps its six in-band modes, the cluster its four (the resonator
+    # at 37 Hz failed 3.45 while the close blade pair was two poles)
     assert np.abs(cm.frequency[cm.in_band & ~keep]).tolist() == pytest.approx(
-        {"truss_high": [], "cluster": [36.978]}[name], abs=0.01)
+        {"truss_high": [], "cluster": []}[name], abs=0.01)
     nm = _normal_modes(cm, modes=np.flatnonzero(keep))
     assert nm.properness.residue_error < 0.01                # measured: 0.0017, 0.0035
     rest = ~keep

@@ -31,6 +31,7 @@ from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array
 from sdctrl.identification._compression import compressed_data
+from sdctrl.identification._line_correlation import window_correlation
 from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
 from sdctrl.identification._initial import (
     initial_candidates,
@@ -88,8 +89,24 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         (peaks of the summed FRF and of the first singular values of ``H(f)``, damping
         from the half-power width); then rounds of removing poles that do not converge,
         fit noise, are fillers or are not significant (once out-of-band poles just below
-        and above the band were tried), trying those out-of-band poles, and adding poles
+        and above the band were tried), adding out-of-band poles, and adding poles
         at residual peaks (missed modes).
+        Out-of-band poles (issue 22): the tails of modes outside the band that the
+        asymptotic terms ``E``, ``F/s^2`` of the complex-mode model (3.7) do not carry
+        are absorbed by poles held within a factor 4 of the band edges, one per side
+        and pass, added while each new one is significant, i.e. while the residual
+        near the band edges stays above the noise.  The rule is the significance test
+        of 3.2.1 with the noise estimated from the data: for an out-of-band pole, the
+        lower of the residual's running-median level and the level of its second
+        differences along the lines (equal for noise independent between lines, far
+        below for the smooth tail of a mode, which is no noise); in-band poles meet the
+        running-median level alone.  An FRF measured through an exponential window
+        (``frf.exponential_tau``) has noise correlated between lines, known from the
+        window (``c_k = 1/(1 + i pi k tau df)``): the significance test and the
+        second-difference level account for it (without that, a roving-hammer survey's
+        band filled with poles fitting the correlated noise).  No threshold depends on
+        the structure.  Close modes: a frequency rejected by the residual scan is retried
+        once the model has changed.
         The search stops when the fit is numerically exact, or after a round whose
         residual-peak candidates were all rejected.
     band : (float, float), optional
@@ -217,7 +234,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             if auto:
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
-                                    _noise_shape(data, Hm, V))
+                                    _noise_shape(data, Hm, V),
+                                    window_correlation(data.exponential_tau, data.freq))
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
                     raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"

@@ -81,7 +81,8 @@ from sdctrl._lib.validate import QUANTITY_POWER
 from sdctrl.identification._noise import running_median
 from sdctrl.identification._residues import LSQ, basis, stack
 
-__all__ = ["FitStatistics", "fit_statistics", "pole_std", "coefficient_variance"]
+__all__ = ["COND_MAX", "FitStatistics", "coefficient_variance", "fit_statistics", "pole_std",
+           "undetermined"]
 
 #: lines of the running mean of the point variance when lines are correlated (module notes)
 SMOOTH_LINES = 21
@@ -156,8 +157,9 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     Returns
     -------
     FitStatistics or None
-        None when the data leave no degree of freedom for the noise or the poles'
-        Jacobian is singular.
+        None when the data leave no degree of freedom for the noise.  A singular
+        Jacobian of the poles gives statistics of the poles the data determine
+        (pseudo-inverse, :func:`undetermined`), NaN for the others.
     """
     nf, ns, na = data.H.shape
     m = ns * na
@@ -180,12 +182,7 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     B = np.einsum("iau,aum->iam", Gp.reshape(2 * nf, 2 * n, npp), Cp)   # P_perp D_c
     A = np.einsum("aubv,aubv->ab", (Gp.T @ Gp).reshape(2 * n, npp, 2 * n, npp),
                   np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
-    if poles_fixed:
-        A_inv = np.zeros_like(A)
-    elif np.linalg.cond(A) > 1e14:
-        return None
-    else:
-        A_inv = np.linalg.inv(A)
+    A_inv = np.zeros_like(A) if poles_fixed else _gauss_newton_inverse(A)
     rho = line_correlation(data.freq, data.exponential_tau)
     if data.coherence is not None and np.any(data.coherence < 1.0):
         var = np.abs(H) ** 2 * (1.0 - data.coherence.reshape(nf, m)) / n_averages
@@ -266,6 +263,52 @@ def _noise_times(X, sig, rho):
     cz = fftconvolve(z, rho[:, None, None], axes=0)[nf - 1:2 * nf - 1]
     cz *= 0.5 * sig[:, None, :]
     return np.concatenate([cz.real, cz.imag])
+
+
+#: relative eigenvalue of ``J^T J`` below which its direction is not determined by the data
+COND_MAX = 1e14
+
+
+def _gauss_newton_inverse(A):
+    """Inverse of the Gauss-Newton matrix ``A`` of the poles, or its pseudo-inverse on the
+    directions the data determine (eigenvalues above ``max / COND_MAX``) when it is
+    singular: two poles standing for one mode beyond the band, a pole far from every
+    line.  The null directions get zero in the inverse and :func:`undetermined` names
+    the poles they involve (their statistics are NaN, 3.56)."""
+    d, U = np.linalg.eigh(0.5 * (A + A.T))
+    dmax = float(d.max()) if d.size else 0.0
+    if d.size and d.min() > dmax / COND_MAX:
+        return np.linalg.inv(A)
+    keep = d > dmax / COND_MAX
+    return (U[:, keep] / d[keep]) @ U[:, keep].T
+
+
+def undetermined(stats: FitStatistics) -> np.ndarray:
+    """Poles whose parameters the data do not determine (n,) bool.
+
+    The inverse Gauss-Newton matrix is a pseudo-inverse with exact zero eigenvalues on
+    the directions the data leave free (:func:`_gauss_newton_inverse`); a pole is
+    undetermined when more than 1e-3 of one of its parameters (``Re l``, ``Im l``) lies
+    in that null space.
+
+    Parameters
+    ----------
+    stats : FitStatistics
+        Covariance blocks of the fit.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    n = stats.n
+    if n == 0 or not np.any(stats.A_inv):
+        return np.zeros(n, bool)                       # poles given (fixed): no pole part
+    d, U = np.linalg.eigh(0.5 * (stats.A_inv + stats.A_inv.T))
+    null = d <= 0.1 * float(d.max()) / COND_MAX      # kept: >= max / COND_MAX
+    if not np.any(null):
+        return np.zeros(n, bool)
+    part = np.sum(U[:, null] ** 2, axis=1).reshape(n, 2)
+    return np.any(part > 1e-3, axis=1)
 
 
 def _basis_derivative(lam, s, k, model):
@@ -360,7 +403,7 @@ def pole_std(stats: FitStatistics, poles) -> tuple[np.ndarray, np.ndarray]:
     blocks = stats.S.reshape(n, 2, n, 2)[np.arange(n), :, np.arange(n), :]   # (n, 2, 2)
     vf = np.einsum("ja,jab,jb->j", gf, blocks, gf)
     vz = np.einsum("ja,jab,jb->j", gz, blocks, gz)
-    ok = np.isfinite(vf) & np.isfinite(vz) & (vf >= 0) & (vz >= 0)
+    ok = np.isfinite(vf) & np.isfinite(vz) & (vf >= 0) & (vz >= 0) & ~undetermined(stats)
     return (np.where(ok, np.sqrt(np.abs(vf)), np.nan),
             np.where(ok, np.sqrt(np.abs(vz)), np.nan))
 
@@ -384,4 +427,10 @@ def coefficient_variance(stats: FitStatistics, direct_only: bool = False) -> np.
         return direct
     cross = np.einsum("mpa,ab,mpb->pm", stats.K, stats.A_inv, stats.M)
     through = np.einsum("mpa,ab,mpb->pm", stats.M, stats.S, stats.M)
-    return np.maximum(direct - 2 * cross + through, 0.0)
+    var = np.maximum(direct - 2 * cross + through, 0.0)
+    bad = undetermined(stats)
+    if np.any(bad):                          # the coefficients of undetermined poles
+        npp = 2 if stats.model == "complex" else 1
+        rows = (np.flatnonzero(bad)[:, None] * npp + np.arange(npp)).ravel()
+        var[rows] = np.nan
+    return var

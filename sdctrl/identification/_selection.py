@@ -6,14 +6,22 @@ add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification.
 drop poles that do not converge (pushed to a bound), fit noise (half-power bandwidth below
 a fraction of the line spacing and a damping the data do not determine, 3.56), are in-band
 fillers with very large damping or are not statistically significant
-(:mod:`~sdctrl.identification._noise`), and try out-of-band poles just below and above the
-band (held outside by bounds) that absorb modes the asymptotic terms ``E``, ``F/s^2``
-cannot represent.  Both sides are tried before the first removal of insignificant poles:
-the significance test takes the residual for noise, and the tail of a mode just outside
-the band inflates it over the whole band (a lightly damped mode at the other end of the
+(:mod:`~sdctrl.identification._noise`), and add out-of-band poles below and above the
+band (held outside by bounds, within a factor 4 of its edges) that absorb modes the
+asymptotic terms ``E``, ``F/s^2`` cannot represent: one per side and pass while they are
+significant, so that the fit reaches the noise whatever lies outside the band (six
+suspension and plate modes below a band, modes just outside both edges).  Out-of-band
+poles are judged against the noise field that excludes residuals smooth in frequency
+(second differences, :func:`~sdctrl.identification._noise.noise_field`), in-band poles
+against the direct field.  A residual-scan candidate that was rejected is excluded
+(1.5 lines around it) only until the model changes: a close mode hidden while its
+neighbour was not fitted is proposed again.  Both sides
+are tried before the first removal of insignificant poles: the significance test takes
+the residual for noise, and the tail of a mode just outside the band inflates it over
+the whole band (a lightly damped mode at the other end of the
 testbed band looked 0.3-0.8 times the threshold, then 280 times once the mode above the
 band was fitted).  A side's trial is repeated whenever
-the in-band pole set has changed since its last trial: on a first fit that still misses
+the pole set has changed since its last failed trial: on a first fit that still misses
 in-band modes (common with single-reference data, whose indicator functions propose fewer
 candidates), their residual pulls the trial pole to a bound, and the out-of-band mode is
 only found once they are fitted.
@@ -31,7 +39,7 @@ import numpy as np
 
 from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
-from sdctrl.identification._search import search_poles
+from sdctrl.identification._search import OUT_FACTOR, search_poles
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
 
@@ -40,6 +48,10 @@ PROBE_EVALS = 40
 #: largest standard deviation of ``ln zeta`` of a resolved pole narrower than the line
 #: spacing: its damping is then more than two standard deviations above zero
 RESOLVED_STD = 0.5
+#: most poles added on each side of the band
+MAX_OUT = 6
+#: trial frequencies of the grid that places a further out-of-band pole
+OOB_GRID = 12
 
 
 class AutoSelection:
@@ -61,20 +73,23 @@ class AutoSelection:
         ``warn(message)`` reports trouble.
     shape : ndarray, shape (nf, k), optional
         Noise shape from the coherence (3.59).
+    corr : LineCorrelation, optional
+        Noise correlation between lines (exponential window); None: independent.
     """
 
     def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
-                 significance, warn, shape=None):
+                 significance, warn, shape=None, corr=None):
         self.prob, self.freq, self.fband = prob, freq, fband
         self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
         self.df = float(np.median(np.diff(freq)))
         self.min_bw, self.zeta_max = min_bandwidth, zeta_max
-        self.noise = NoiseTest(prob, significance, shape)
+        self.noise = NoiseTest(prob, significance, shape, corr)
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log = []
         self.warn = warn
         self.tried = []
         self.best = None
+        self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -106,7 +121,7 @@ class AutoSelection:
         ev = self.prob.evaluate(x)
         return w, z, ev, info
 
-    def significance(self, w, z, ev):
+    def significance(self, w, z, ev, side=None):
         """Cost increase of removing each pole over its noise threshold (>1 keeps).
 
         Parameters
@@ -115,12 +130,16 @@ class AutoSelection:
             Poles of the fit.
         ev : dict
             Their evaluation.
+        side : ndarray of int, optional
+            0 in band, -1 below, +1 above: out-of-band poles meet the noise field that
+            excludes residuals smooth in frequency (:func:`~sdctrl.identification._noise.
+            noise_field`, ``smooth=True``).
 
         Returns
         -------
         ndarray
         """
-        return self.noise.significance(w.size, ev)
+        return self.noise.significance(w.size, ev, side)
 
     def missed(self, w, z, ev, max_add=6):
         """Missed modes (frequency Hz, damping) in the residual, strongest first.
@@ -164,7 +183,7 @@ class AutoSelection:
         f = w / (2 * np.pi)
         reasons = self._rejected(w, z, side, info, ev)
         if not reasons and weak:
-            sig = self.significance(w, z, ev)
+            sig = self.significance(w, z, ev, side)
             weak = np.flatnonzero(sig < 1.0)
             if weak.size:
                 # the weakest, and with it every clearly insignificant pole with no other
@@ -187,17 +206,28 @@ class AutoSelection:
     def _accept(self, w, z, ev, info, new, side):
         """Indices in ``new`` of poles that converged, are not rejected and are significant."""
         bad = self._rejected(w, z, side, info, ev)
-        sig = self.significance(w, z, ev)
+        sig = self.significance(w, z, ev, side)
         ok = [j for j in new if sig[j] >= 1.0 and j not in bad]
         return np.array(ok, int)
 
     def _rejected(self, w, z, side, info, ev):
-        """{index: reason} of poles at a bound, fitting noise or filling in."""
+        """{index: reason} of poles at a bound, fitting noise or filling in.
+
+        An out-of-band pole is judged by its significance alone unless it is pushed
+        to a frequency bound: at a damping bound it still carries the tail of a mode
+        beyond the band, which no line resolves.
+        """
         f = w / (2 * np.pi)
         reasons = {}
         edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
                               (self.fband[1] - f < 0.5 * self.df))
-        for j in np.flatnonzero(info.get("at_bound", np.zeros(w.size, bool)) | edge):
+        at_bound = info.get("at_bound", np.zeros(w.size, bool)) & (side == 0)
+        # out of band: at the edge it stands for an in-band mode, at the far bound (a
+        # factor OUT_FACTOR from the edge) for what the asymptotic terms E, F/s^2 carry
+        lo, hi = self.fband[0] * (1 - 1e-6), self.fband[1] * (1 + 1e-6)
+        at_edge = ((side < 0) & ((f > lo) | (f < lo / OUT_FACTOR * (1 + 2e-6)))) | \
+                  ((side > 0) & ((f < hi) | (f > hi * OUT_FACTOR * (1 - 2e-6))))
+        for j in np.flatnonzero(at_bound | edge | at_edge):
             reasons[j] = "did not converge (pushed to a bound)"
         for j in self._unresolved(w, z, side, ev, reasons):
             reasons[j] = (f"noise fitting (half-power bandwidth below {self.min_bw:g} line "
@@ -214,18 +244,16 @@ class AutoSelection:
         from zero; a lightly damped mode under-resolved by the lines but well above the
         noise has its damping set by the lines on its flanks.  In band, a narrow pole is
         kept when its damping is significantly above zero, ``std(ln zeta)`` (3.56) below
-        :data:`RESOLVED_STD`; out of band (no lines near it) the bandwidth rule applies
-        alone.
+        :data:`RESOLVED_STD`.  Out of band no line resolves a peak whatever its
+        damping: the rule does not apply there (significance alone judges).
         """
         f = w / (2 * np.pi)
-        narrow = [j for j in np.flatnonzero(2 * z * f < self.min_bw * self.df)
-                  if j not in reasons]
-        check = [j for j in narrow if side[j] == 0]
+        check = [j for j in np.flatnonzero((2 * z * f < self.min_bw * self.df) & (side == 0))
+                 if j not in reasons]
         if not check:
-            return narrow
+            return []
         std = self.noise.log_damping_std(w, z, ev, check)
-        resolved = {j for j, sj in zip(check, std) if sj < RESOLVED_STD}
-        return [j for j in narrow if j not in resolved]
+        return [j for j, sj in zip(check, std) if not sj < RESOLVED_STD]
 
     def _drop_weak_candidates(self, w, z, side, pending):
         """Initial candidates far below the noise threshold at their picked position
@@ -242,31 +270,71 @@ class AutoSelection:
         return w[keep], z[keep], side[keep], pending[keep]
 
     def _out_of_band(self, state, tried_side):
-        """Modes just outside the band (their tails distort the in-band residual),
-        retried on each side whenever the number of in-band poles has changed; returns
-        the new state, or None when no trial was kept."""
+        """Poles just outside the band (the tails of modes there distort the in-band
+        residual): one new pole per side and pass, passes repeated while a side keeps
+        significant poles.  At most :data:`MAX_OUT` are added per side over the whole
+        selection, so that poles a later fit pushes to a far bound (then removed) are not
+        tried again and again.  Alternating matters: a mode just outside one edge
+        dominates the residual, and poles fitted to it from the other side pile up at
+        their far bound.  A side is retried whenever the numbers of in-band poles or of
+        poles have changed since its last failed trial.  Returns the new state, or None
+        when no pole was added."""
         changed = None
-        for sd in (-1, 1):
-            w, z, side = state[:3]
-            nin = int(np.count_nonzero(side == 0))
-            if tried_side[sd] == nin or np.any(side == sd):
-                continue
-            tried_side[sd] = nin
-            f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
-            wn = np.concatenate([w, [2 * np.pi * f0]])
-            zn = np.concatenate([z, [0.01]])
-            sn = np.concatenate([side, [sd]])
-            new = np.array([wn.size - 1])
-            w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=new)
-            if not self._accept(w2, z2, ev2, info2, new, sn).size:
-                continue
-            w2, z2, ev2, info2 = self.fit(w2, z2, sn)
-            if self._accept(w2, z2, ev2, info2, new, sn).size:
-                self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
-                                 "out-of-band mode " + ("below" if sd < 0 else "above")))
-                state = changed = (w2, z2, sn, ev2, info2)
-                self.best = state
-        return changed
+        while True:
+            added = False
+            for sd in (-1, 1):
+                w, z, side = state[:3]
+                key = (int(np.count_nonzero(side == 0)), w.size)
+                if tried_side[sd] == key or self.out_added[sd] >= MAX_OUT:
+                    continue
+                new = self._try_side(state, sd)
+                if new is None:
+                    tried_side[sd] = key
+                    continue
+                state = changed = self.best = new
+                self.out_added[sd] += 1
+                added = True
+            if not added:
+                return changed
+
+    def _oob_start(self, state, sd):
+        """Starting frequency (Hz) of a new pole on side ``sd``: the best of a geometric
+        grid between just outside the band edge and the far bound of the search (the
+        edge divided or multiplied by :data:`~sdctrl.identification._search.OUT_FACTOR`)
+        by the cost of the fit with the trial pole added (the others fixed); from the
+        edge alone, a probe for modes well beyond it ends at the far bound."""
+        w, z, side = state[:3]
+        edge = self.fband[0] if sd < 0 else self.fband[1]
+        span = 0.95 * OUT_FACTOR if sd > 0 else 1 / (0.95 * OUT_FACTOR)
+        grid = edge * (0.97 if sd < 0 else 1.03) * np.geomspace(1.0, span, OOB_GRID)
+        best, fbest = np.inf, grid[0]
+        for f0 in grid:
+            x = np.concatenate([np.log(np.append(w, 2 * np.pi * f0)),
+                                np.log(np.append(z, 0.01))])
+            cost = self.prob.evaluate(x)["cost"]
+            if cost < best:
+                best, fbest = cost, f0
+        return fbest
+
+    def _try_side(self, state, sd):
+        """One new pole on side ``sd``: probe, then full fit; the new state if it is kept
+        (converged away from the band edge and significant), else None."""
+        w, z, side = state[:3]
+        f0 = self._oob_start(state, sd)
+        wn = np.concatenate([w, [2 * np.pi * f0]])
+        zn = np.concatenate([z, [0.01]])
+        sn = np.concatenate([side, [sd]])
+        new = np.array([wn.size - 1])
+        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=new)
+        if not self._accept(w2, z2, ev2, info2, new, sn).size:
+            return None
+        w2, z2, ev2, info2 = self.fit(w2, z2, sn)
+        if not self._accept(w2, z2, ev2, info2, new, sn).size:
+            return None
+        self.tried = []                       # the model changed (see _add_missed)
+        self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
+                         "out-of-band mode " + ("below" if sd < 0 else "above")))
+        return w2, z2, sn, ev2, info2
 
     def _add_missed(self, state, cand, reason="residual peak"):
         """Fit the candidates of the residual scan (or pending initial candidates); the
@@ -279,11 +347,14 @@ class AutoSelection:
         sn = np.concatenate([side, np.zeros(len(cand), int)])
         # first the new poles alone (the others fixed), then all of them
         w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
-        for fi, _ in cand:
-            self.tried.append(float(fi))
         ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
+        rejected = [float(c[0]) for j, c in enumerate(cand) if n0 + j not in set(ok)]
         if not ok.size:
+            self.tried += rejected
             return None
+        # the model changed: what was rejected (or pruned) before is retried, so that a
+        # mode closer than the exclusion (1.5 lines) to one found before is still found
+        self.tried = rejected
         keep = np.concatenate([np.arange(n0), ok])
         w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
         for j in range(n0, keep.size):
@@ -322,7 +393,7 @@ class AutoSelection:
             new = self._add_missed(state, list(zip(w[pending] / (2 * np.pi), z[pending])),
                                    "peak of the indicator functions")
             state = self.best = state if new is None else new
-        tried_side = {-1: None, 1: None}     # in-band poles at the last trial per side
+        tried_side = {-1: None, 1: None}     # (in-band poles, poles) at the last failed trial
         for _ in range(rounds):
             w, z, side, ev, info = state
             if bar is not None:
