@@ -222,17 +222,19 @@ def test_real_impact_records():
     for f0 in (3669.0, 3689.0, 4128.0, 4164.0, 4392.0):     # the source's strongest peaks
         assert np.min(np.abs(a.frequency - f0)) < 3.0
     assert a.cost < 0.1                                     # measured: 5.0%
-    # the window's decay rate 1/tau removed from every pole, nothing else changed (the same
-    # data and coherence without the window's record: the coherence sets the noise model)
+    # the window's decay rate 1/tau removed from every pole: the same data and coherence
+    # without the window's record, identified by the rules of unwindowed data (which add
+    # out-of-band poles while significant against second differences: one at 4540 Hz here;
+    # windowed data keep the direct noise field, their lines being correlated)
     raw = sd.identify(sd.FRF(frf.freq, frf.H, quantity="acceleration",
                              coherence=frf.coherence), band=band, progress=False)
-    assert a.n == raw.n and np.sum(~a.in_band) <= 1          # measured: 4540 Hz, above
-    # in band; the pole above the band (a mode's tail, issue 22) decays slower than the
-    # window: kept at the damping floor with a warning
-    inb = a.in_band
-    np.testing.assert_allclose(a.poles[inb].real - raw.poles[inb].real,
-                               1 / frf.exponential_tau, rtol=1e-6)
-    assert np.all(a.damping > 0) and np.all(a.damping[inb] < raw.damping[inb])
+    inb, rin = a.in_band, raw.in_band
+    assert a.n == np.sum(inb) == np.sum(rin) == raw.n - 1    # measured: 9 in band
+    np.testing.assert_allclose(a.frequency[inb], raw.frequency[rin], rtol=1e-5)
+    # measured: median 1.2% off 1/tau, the two modes nearest the extra pole -16% and +11%
+    shift = (a.poles[inb].real - raw.poles[rin].real) * frf.exponential_tau
+    assert np.all(np.abs(shift - 1) < 0.2) and np.median(np.abs(shift - 1)) < 0.02
+    assert np.all(a.damping > 0) and np.all(a.damping[inb] < raw.damping[rin])
     # light damping: the window is most of the apparent damping of the 4164 Hz mode
     j = np.argmin(np.abs(a.frequency - 4164.0))
-    assert raw.damping[j] > 2 * a.damping[j]
+    assert raw.damping[np.argmin(np.abs(raw.frequency - 4164.0))] > 2 * a.damping[j]

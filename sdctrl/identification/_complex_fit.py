@@ -31,7 +31,6 @@ from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array
 from sdctrl.identification._compression import compressed_data
-from sdctrl.identification._line_correlation import window_correlation
 from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
 from sdctrl.identification._initial import (
     initial_candidates,
@@ -101,11 +100,13 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         differences along the lines (equal for noise independent between lines, far
         below for the smooth tail of a mode, which is no noise); in-band poles meet the
         running-median level alone.  An FRF measured through an exponential window
-        (``frf.exponential_tau``) has noise correlated between lines, known from the
-        window (``c_k = 1/(1 + i pi k tau df)``): the significance test and the
-        second-difference level account for it (without that, a roving-hammer survey's
-        band filled with poles fitting the correlated noise).  No threshold depends on
-        the structure.  Close modes: a frequency rejected by the residual scan is retried
+        (``frf.exponential_tau``) has noise correlated between lines
+        (``c_k = 1/(1 + i pi k tau df)``, 0.8 between neighbours), which second
+        differences take for signal: there one out-of-band pole per side is tried,
+        against the direct level (with the second-difference level, a roving-hammer
+        survey's band filled with poles fitting the correlated noise; counting the
+        correlation in the test instead merged a blade pair of the cluster's survey and
+        missed a mode of real hammer data).  No threshold depends on the structure.  Close modes: a frequency rejected by the residual scan is retried
         once the model has changed.
         The search stops when the fit is numerically exact, or after a round whose
         residual-peak candidates were all rejected.
@@ -235,7 +236,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
                                     _noise_shape(data, Hm, V),
-                                    window_correlation(data.exponential_tau, data.freq))
+                                    windowed=data.exponential_tau is not None)
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
                     raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"

@@ -103,8 +103,6 @@ class ResidualScan:
             dJ = np.sum(Gr**2, axis=1) / np.maximum(np.sum(G * G, axis=0), 1e-300)
             d = projector_diagonal(G[:, :, None])
         ds = (0.5 / self.prob.npp) * ((d[:nf] + d[nf:]).T @ sig2)
-        if self.noise.corr is not None:      # correlated lines: the smooth-trial bound
-            ds = ds * max(self.noise.corr.inflation, 1.0)
         return dJ, ds
 
     def _level(self, corr, Q, r, sig2, mult, stride):

@@ -23,9 +23,8 @@ cost change exceeds what pure noise would give:
   simulated hammer test: correlation 0.8 between neighbouring lines, second differences
   30 times below the noise), which an in-band pole of small damping can fit, while an
   out-of-band pole, smooth over the band on the scale of its distance to the edge,
-  cannot; when the FRF records its exponential window the correlation is known
-  (:mod:`~sdctrl.identification._line_correlation`) and both the second-difference level
-  and the noise a pole's projection takes (``tr(P Sigma)``) account for it;
+  cannot; an FRF that records an exponential window keeps the direct field for every
+  pole (:class:`~sdctrl.identification._selection.AutoSelection`, ``windowed``);
 * it is weighted by the diagonal of the projector on the pole's columns (orthogonalised
   against the other poles): a pole on a peak meets the noise of the peak;
 * the cost change of a noise-fitting pole, ``sum_c s_c chi2(npp)`` over the data
@@ -46,7 +45,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from sdctrl.identification._line_correlation import correlate
 from sdctrl.identification._residues import basis_derivatives, stack
 
 __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
@@ -97,8 +95,7 @@ def running_median(X: np.ndarray, win: int) -> np.ndarray:
     return (1 - a) * med[j] + a * med[j + 1]
 
 
-def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
-                d2_ratio=None) -> np.ndarray:
+def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False) -> np.ndarray:
     """Heteroscedastic noise variance ``E[r_re^2 + r_im^2]`` per line and data column.
 
     Two robust local estimates (running medians over ``win`` lines of the residual ``r``
@@ -126,9 +123,6 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
     smooth : bool
         Also estimate the levels from second differences and keep the lower field (the
         noise seen by out-of-band poles; module notes).
-    d2_ratio : float, optional
-        Variance of the second difference of the noise over its value for independent
-        lines (:attr:`LineCorrelation.second_difference`); None: 1.
 
     Returns
     -------
@@ -147,7 +141,7 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
         # frequency (model error, the tails of modes outside the band), which is no
         # noise; used for out-of-band poles only (module notes)
         d = np.max([_level(_second_difference(r[:nf], r[nf:], lev, k), shape, tiny, win)
-                    for k in SMOOTH_LAGS if 2 * k < nf], axis=0) / (d2_ratio or 1.0)
+                    for k in SMOOTH_LAGS if 2 * k < nf], axis=0)
         field = np.minimum(field, d)
     return field
 
@@ -204,14 +198,10 @@ class NoiseTest:
         Multiplier of the noise threshold.
     shape : ndarray, shape (nf, k), optional
         Noise shape from the coherence (3.59), on the (compressed) data columns.
-    corr : LineCorrelation, optional
-        Noise correlation between lines (an exponential window,
-        :mod:`~sdctrl.identification._line_correlation`); None: independent lines.
     """
 
-    def __init__(self, prob, significance: float, shape=None, corr=None):
+    def __init__(self, prob, significance: float, shape=None):
         self.prob = prob
-        self.corr = corr
         self.nf = prob.s.size
         self.signif = significance
         self.shape = shape                      # noise shape (nf, k) from the coherence
@@ -234,9 +224,8 @@ class NoiseTest:
         key = "sig2s" if smooth else "sig2"
         if key not in ev:
             r = ev["r"]
-            d2 = None if self.corr is None else self.corr.second_difference
             ev[key] = noise_field(r, self.prob.Y - r, ev["lsq"].Q, self.shape, self.win,
-                                  smooth, d2)
+                                  smooth)
         return ev[key]
 
     def threshold(self, s):
@@ -304,13 +293,6 @@ class NoiseTest:
         Cs = sla.solve_triangular(lsq.Rr, lsq.Q.T @ prob.Y, check_finite=False)
         sig2 = self.field(ev)
         out = np.zeros(n, bool) if side is None else np.asarray(side) != 0
-        if self.corr is not None:
-            # the lines' correlation is known (exponential window): the second-difference
-            # level, corrected for it, is the noise for every pole (the direct level of a
-            # real impact test is its model error near the peaks, which the correlation's
-            # factor would then count four times: the 4164 Hz mode of the pyFRF hits was
-            # judged insignificant though it took 94% of the cost)
-            out[:] = True
         sig2s = self.field(ev, smooth=True) if np.any(out) else sig2
         dJ = np.empty(n)
         sc = np.empty((n, sig2.shape[1]))
@@ -320,9 +302,7 @@ class NoiseTest:
             Ginv = np.linalg.inv(MSS)
             B = W[:, S] @ Ginv
             dJ[j] = float(np.sum(Cs[S] * (Ginv @ Cs[S])))
-            # diagonal of P Sigma (P the projector on the pole's columns, Sigma the
-            # noise correlation of the lines; P alone for independent lines)
-            d = np.sum((B @ MSS) * correlate(B, self.corr), axis=1)
+            d = np.sum((B @ MSS) * B, axis=1)                           # projector diagonal
             dl = d[:nf] + d[nf:]
             sc[j] = 0.5 * (dl @ (sig2s if out[j] else sig2)) / npp     # per column
         return dJ / np.maximum(self.threshold(sc), self.floor)
@@ -374,6 +354,5 @@ class NoiseTest:
             except np.linalg.LinAlgError:
                 continue
             Ju = D @ (np.repeat(u, npp)[:, None] * Cp)                  # J u, (2nf, k)
-            JCu = Ju * correlate(Ju, self.corr)                         # correlated lines
-            out[i] = np.sqrt(float(np.sum((JCu[:nf] + JCu[nf:]) * sig2)))
+            out[i] = np.sqrt(float(np.sum((Ju[:nf] ** 2 + Ju[nf:] ** 2) * sig2)))
         return out

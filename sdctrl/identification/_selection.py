@@ -73,17 +73,26 @@ class AutoSelection:
         ``warn(message)`` reports trouble.
     shape : ndarray, shape (nf, k), optional
         Noise shape from the coherence (3.59).
-    corr : LineCorrelation, optional
-        Noise correlation between lines (exponential window); None: independent.
+    windowed : bool
+        The FRF was measured through an exponential window (``frf.exponential_tau``):
+        its noise is correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8
+        between neighbours on a hammer survey), which the second-difference noise level
+        of out-of-band poles would take for signal -- a simulated roving-hammer survey's
+        band then filled with poles (20 for 6).  Such data keep the rules that hold
+        there: one out-of-band pole per side started at the band edge, judged against
+        the direct noise field, rejected candidates not retried.
     """
 
     def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
-                 significance, warn, shape=None, corr=None):
+                 significance, warn, shape=None, windowed: bool = False):
         self.prob, self.freq, self.fband = prob, freq, fband
         self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
         self.df = float(np.median(np.diff(freq)))
         self.min_bw, self.zeta_max = min_bandwidth, zeta_max
-        self.noise = NoiseTest(prob, significance, shape, corr)
+        self.noise = NoiseTest(prob, significance, shape)
+        self.windowed = bool(windowed)
+        if self.windowed:
+            self.noise.floor = 1e-11 * prob.normY2     # the rules of windowed data
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log = []
         self.warn = warn
@@ -139,7 +148,7 @@ class AutoSelection:
         -------
         ndarray
         """
-        return self.noise.significance(w.size, ev, side)
+        return self.noise.significance(w.size, ev, None if self.windowed else side)
 
     def missed(self, w, z, ev, max_add=6):
         """Missed modes (frequency Hz, damping) in the residual, strongest first.
@@ -221,12 +230,14 @@ class AutoSelection:
         reasons = {}
         edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
                               (self.fband[1] - f < 0.5 * self.df))
-        at_bound = info.get("at_bound", np.zeros(w.size, bool)) & (side == 0)
+        at_bound = info.get("at_bound", np.zeros(w.size, bool)) & \
+            ((side == 0) | self.windowed)
         # out of band: at the edge it stands for an in-band mode, at the far bound (a
         # factor OUT_FACTOR from the edge) for what the asymptotic terms E, F/s^2 carry
         lo, hi = self.fband[0] * (1 - 1e-6), self.fband[1] * (1 + 1e-6)
         at_edge = ((side < 0) & ((f > lo) | (f < lo / OUT_FACTOR * (1 + 2e-6)))) | \
                   ((side > 0) & ((f < hi) | (f > hi * OUT_FACTOR * (1 - 2e-6))))
+        at_edge &= not self.windowed
         for j in np.flatnonzero(at_bound | edge | at_edge):
             reasons[j] = "did not converge (pushed to a bound)"
         for j in self._unresolved(w, z, side, ev, reasons):
@@ -245,15 +256,18 @@ class AutoSelection:
         noise has its damping set by the lines on its flanks.  In band, a narrow pole is
         kept when its damping is significantly above zero, ``std(ln zeta)`` (3.56) below
         :data:`RESOLVED_STD`.  Out of band no line resolves a peak whatever its
-        damping: the rule does not apply there (significance alone judges).
+        damping: the rule does not apply there (significance alone judges), except for
+        windowed data (``windowed``), where a narrow out-of-band pole is noise fitting.
         """
         f = w / (2 * np.pi)
-        check = [j for j in np.flatnonzero((2 * z * f < self.min_bw * self.df) & (side == 0))
-                 if j not in reasons]
+        narrow = [j for j in np.flatnonzero(2 * z * f < self.min_bw * self.df)
+                  if j not in reasons]
+        check = [j for j in narrow if side[j] == 0]
+        out = [j for j in narrow if side[j] != 0 and self.windowed]
         if not check:
-            return []
+            return out
         std = self.noise.log_damping_std(w, z, ev, check)
-        return [j for j, sj in zip(check, std) if not sj < RESOLVED_STD]
+        return out + [j for j, sj in zip(check, std) if not sj < RESOLVED_STD]
 
     def _drop_weak_candidates(self, w, z, side, pending):
         """Initial candidates far below the noise threshold at their picked position
@@ -285,7 +299,12 @@ class AutoSelection:
             for sd in (-1, 1):
                 w, z, side = state[:3]
                 key = (int(np.count_nonzero(side == 0)), w.size)
-                if tried_side[sd] == key or self.out_added[sd] >= MAX_OUT:
+                if self.windowed:             # retried when the in-band poles changed
+                    key = key[0]
+                    if tried_side[sd] == key or np.any(side == sd):
+                        continue
+                    tried_side[sd] = key
+                elif tried_side[sd] == key or self.out_added[sd] >= MAX_OUT:
                     continue
                 new = self._try_side(state, sd)
                 if new is None:
@@ -294,7 +313,7 @@ class AutoSelection:
                 state = changed = self.best = new
                 self.out_added[sd] += 1
                 added = True
-            if not added:
+            if not added or self.windowed:
                 return changed
 
     def _oob_start(self, state, sd):
@@ -320,7 +339,10 @@ class AutoSelection:
         """One new pole on side ``sd``: probe, then full fit; the new state if it is kept
         (converged away from the band edge and significant), else None."""
         w, z, side = state[:3]
-        f0 = self._oob_start(state, sd)
+        if self.windowed:
+            f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
+        else:
+            f0 = self._oob_start(state, sd)
         wn = np.concatenate([w, [2 * np.pi * f0]])
         zn = np.concatenate([z, [0.01]])
         sn = np.concatenate([side, [sd]])
@@ -331,7 +353,8 @@ class AutoSelection:
         w2, z2, ev2, info2 = self.fit(w2, z2, sn)
         if not self._accept(w2, z2, ev2, info2, new, sn).size:
             return None
-        self.tried = []                       # the model changed (see _add_missed)
+        if not self.windowed:
+            self.tried = []                   # the model changed (see _add_missed)
         self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
                          "out-of-band mode " + ("below" if sd < 0 else "above")))
         return w2, z2, sn, ev2, info2
@@ -349,12 +372,14 @@ class AutoSelection:
         w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
         ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
         rejected = [float(c[0]) for j, c in enumerate(cand) if n0 + j not in set(ok)]
+        if self.windowed:
+            self.tried += [float(c[0]) for c in cand]
         if not ok.size:
-            self.tried += rejected
+            self.tried += [] if self.windowed else rejected
             return None
         # the model changed: what was rejected (or pruned) before is retried, so that a
         # mode closer than the exclusion (1.5 lines) to one found before is still found
-        self.tried = rejected
+        self.tried = self.tried if self.windowed else rejected
         keep = np.concatenate([np.arange(n0), ok])
         w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
         for j in range(n0, keep.size):
