@@ -24,6 +24,7 @@ import pytest
 import scipy.sparse as sp
 
 import sdctrl as sd
+from sdctrl.testbeds._measurement_noise import relative_noise
 from sdctrl.testbeds._truss import SENSORS, SHAKERS
 
 FE = sd.testbed()
@@ -104,10 +105,8 @@ def clean_data(case: tuple):
 
 
 def noisy(frf, level=0.01, seed=0):
-    """``H (1 + level e)``, ``e`` complex standard normal (as sd.testbed_frf)."""
-    rng = np.random.default_rng(seed)
-    e = (rng.standard_normal(frf.H.shape) + 1j * rng.standard_normal(frf.H.shape)) / np.sqrt(2)
-    return sd.FRF(frf.freq, frf.H * (1 + level * e), quantity=frf.quantity,
+    """``H (1 + level e)``, ``e`` complex standard normal: the testbeds' noise model."""
+    return sd.FRF(frf.freq, relative_noise(frf.H, level, seed), quantity=frf.quantity,
                   sensors=frf.sensors, actuators=frf.actuators)
 
 

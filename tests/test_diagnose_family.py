@@ -21,6 +21,7 @@ import pytest
 import scipy.sparse as sp
 
 import sdctrl as sd
+from sdctrl.testbeds._measurement_noise import relative_noise
 from sdctrl.diagnosis._candidates import _axial_stiffness, candidate_groups
 
 N_LINES = 200
@@ -156,10 +157,8 @@ def planted(name, effects):
 
 
 def noisy(frf, level=0.01, seed=0):
-    """``H (1 + level e)``, ``e`` complex standard normal."""
-    rng = np.random.default_rng(seed)
-    e = (rng.standard_normal(frf.H.shape) + 1j * rng.standard_normal(frf.H.shape)) / np.sqrt(2)
-    return sd.FRF(frf.freq, frf.H * (1 + level * e), quantity=frf.quantity,
+    """``H (1 + level e)``, ``e`` complex standard normal: the testbeds' noise model."""
+    return sd.FRF(frf.freq, relative_noise(frf.H, level, seed), quantity=frf.quantity,
                   sensors=frf.sensors, actuators=frf.actuators)
 
 

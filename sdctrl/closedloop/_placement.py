@@ -191,7 +191,7 @@ def _with_strut_static(loop, s, rows):
     :func:`sdctrl.hybrids._predictions.with_static` does -- on the reduced matrices only:
     one sparse solve and O(N n) products, never an (N, n) copy of the shapes.
     """
-    from sdctrl.fe._static import consistent_static_modes
+    from sdctrl.fe._static import consistent_static_modes, with_static_blocks
 
     m = loop.reduced
     pb = loop.shapes[rows].T @ s[rows]
@@ -200,12 +200,7 @@ def _with_strut_static(loop, s, rows):
     k = V.shape[1]
     if k == 0:
         return m, pb
-    n = m.n
-    Omega = np.zeros((n + k, n + k))
-    Gamma = np.zeros((n + k, n + k))
-    Omega[:n, :n], Gamma[:n, :n] = m.Omega, m.Gamma
-    Omega[n:, n:] = np.diag(wc2)
-    Gamma[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                       # critical (2.20)
+    Omega, Gamma = with_static_blocks(m.Omega, m.Gamma, wc2)
     m = m.replace(Omega=Omega, Gamma=Gamma, cphi=np.hstack([m.cphi, sensor_c @ V]),
                   phib=np.vstack([m.phib, V.T @ actuator_b]))
     return m, np.vstack([pb, V.T @ s])

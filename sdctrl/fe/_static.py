@@ -22,7 +22,7 @@ from sdctrl._lib.validate import as_array
 from sdctrl.fe._eigen import RIGID_RTOL, diagonal_scale
 
 __all__ = ["consistent_static_modes", "principal_static_basis", "principal_static_modes",
-           "static_correction", "static_solver"]
+           "static_correction", "static_solver", "with_static_blocks"]
 
 
 def static_solver(K, M, R):
@@ -215,3 +215,30 @@ def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float =
     # that are (numerically) in span(shapes) go too: they have no stiffness of their own
     good = wc2 > 0
     return V[:, good], wc2[good]
+
+
+def with_static_blocks(Omega, Gamma, wc2):
+    """Modal stiffness and damping with static correction modes appended.
+
+    The modes of :func:`consistent_static_modes` enter with their projected stiffness
+    ``wc2`` and critical damping ``2 sqrt(wc2)`` (2.20), uncoupled from the others (2.22).
+
+    Parameters
+    ----------
+    Omega, Gamma : ndarray, shape (n, n)
+        Modal stiffness and damping of the model.
+    wc2 : ndarray, shape (k,)
+        Squared frequencies (rad/s)^2 of the static correction modes.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``Omega``, ``Gamma`` of shape (n + k, n + k).
+    """
+    n, k = Omega.shape[0], len(wc2)
+    Om = np.zeros((n + k, n + k))
+    Ga = np.zeros((n + k, n + k))
+    Om[:n, :n], Ga[:n, :n] = Omega, Gamma
+    Om[n:, n:] = np.diag(wc2)
+    Ga[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                             # critical (2.20)
+    return Om, Ga

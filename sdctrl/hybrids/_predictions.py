@@ -29,7 +29,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from sdctrl._lib.validate import as_array, readonly
-from sdctrl.fe._static import consistent_static_modes
+from sdctrl.fe._static import consistent_static_modes, with_static_blocks
 from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.hybrids._hybrid_records import KINDS, HybridConstruction, pairing_report
@@ -328,12 +328,7 @@ def with_static(model, loads) -> HybridModel:
     k = V.shape[1]
     if k == 0:
         return model
-    n = model.n
-    Omega = np.zeros((n + k, n + k))
-    Gamma = np.zeros((n + k, n + k))
-    Omega[:n, :n], Gamma[:n, :n] = model.Omega, model.Gamma
-    Omega[n:, n:] = np.diag(wc2)
-    Gamma[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                       # critical (2.20)
+    Omega, Gamma = with_static_blocks(model.Omega, model.Gamma, wc2)
     kind = None if model.kind is None else np.concatenate([model.kind, np.full(k, "static")])
     return model.replace(kind=kind, n_static=model.n_static + k,
         Omega=Omega, Gamma=Gamma, shapes=np.hstack([model.shapes, V]),
