@@ -11,9 +11,14 @@ import contextlib
 import os
 import signal
 import threading
+import warnings
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
+
+import sdctrl as sd
+from sdctrl.testbeds._measurement_noise import relative_noise
 
 settings.register_profile(
     "ci", derandomize=True, database=None, deadline=None, max_examples=100, print_blob=True,
@@ -56,3 +61,25 @@ def _deadline(seconds: float):
 def deadline():
     """``with deadline(5): call()`` fails the test with :class:`Hang` instead of hanging."""
     return _deadline
+
+
+# ------------------------------------- an identified 3-DOF chain (statistics plots, issue 24)
+def _chain(n=3):
+    M = np.diag(np.linspace(1.0, 1.4, n))
+    k = 1e4 * np.linspace(1.0, 1.5, n)
+    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    return M, K, 2e-4 * K + 0.3 * M
+
+
+@pytest.fixture(scope="session")
+def chain_identified():
+    """A 3-DOF chain tested with 2% noise on every mass from mass 1, identified."""
+    M, K, C = _chain()
+    f = np.linspace(2.0, 40.0, 240)
+    s = 2j * np.pi * f
+    H0 = np.linalg.inv(M * (s**2)[:, None, None] + C * s[:, None, None] + K)[:, :, :1]
+    labels = ("N1.x", "N2.x", "N3.x")
+    frf = sd.FRF(f, relative_noise(H0, 0.02, 0), sensors=labels, actuators=labels[:1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return frf, sd.identify(frf, progress=False), (M, K, C, labels)

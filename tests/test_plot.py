@@ -522,29 +522,6 @@ def test_figures_do_not_warn(testbed_frf):
 
 
 # ------------------------------------------------------------------- statistics (issue 24)
-def _chain(n=3):
-    M = np.diag(np.linspace(1.0, 1.4, n))
-    k = 1e4 * np.linspace(1.0, 1.5, n)
-    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
-    return M, K, 2e-4 * K + 0.3 * M
-
-
-@pytest.fixture(scope="module")
-def chain_identified():
-    """A 3-DOF chain tested with 2% noise on every mass from mass 1, identified."""
-    M, K, C = _chain()
-    f = np.linspace(2.0, 40.0, 240)
-    s = 2j * np.pi * f
-    H0 = np.linalg.inv(M * (s**2)[:, None, None] + C * s[:, None, None] + K)[:, :, :1]
-    rng = np.random.default_rng(0)
-    e = (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2)
-    labels = ("N1.x", "N2.x", "N3.x")
-    frf = sd.FRF(f, H0 * (1 + 0.02 * e), sensors=labels, actuators=labels[:1])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return frf, sd.identify(frf, progress=False), (M, K, C, labels)
-
-
 def test_mode_table_intervals_are_the_statistics(chain_identified):
     frf, cm, _ = chain_identified
     assert np.all(np.isfinite(cm.frequency_std))

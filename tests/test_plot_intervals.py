@@ -2,8 +2,6 @@
 identified model's modes with their frequency interval and damping, read back from the
 figure's artists against ``frequency_std``/``damping_std``."""
 
-import warnings
-
 import matplotlib
 
 matplotlib.use("Agg")
@@ -12,30 +10,6 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-
-
-def _chain(n=3):
-    M = np.diag(np.linspace(1.0, 1.4, n))
-    k = 1e4 * np.linspace(1.0, 1.5, n)
-    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
-    return M, K, 2e-4 * K + 0.3 * M
-
-
-@pytest.fixture(scope="module")
-def chain():
-    """A 3-DOF chain, every mass measured, force on mass 1, 2% noise; identified."""
-    M, K, C = _chain()
-    f = np.linspace(2.0, 40.0, 240)
-    s = 2j * np.pi * f
-    H0 = np.linalg.inv(M * (s**2)[:, None, None] + C * s[:, None, None] + K)[:, :, :1]
-    rng = np.random.default_rng(0)
-    e = (rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)) / np.sqrt(2)
-    labels = ("N1.x", "N2.x", "N3.x")
-    frf = sd.FRF(f, H0 * (1 + 0.02 * e), sensors=labels, actuators=labels[:1])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        cm = sd.identify(frf, progress=False)
-    return frf, cm
 
 
 def _model_row(fig):
@@ -51,8 +25,8 @@ def _model_row(fig):
     return bar, np.asarray(centre), lo, hi, texts
 
 
-def test_stabilisation_marks_the_modes_with_their_intervals(chain):
-    frf, cm = chain
+def test_stabilisation_marks_the_modes_with_their_intervals(chain_identified):
+    frf, cm, _ = chain_identified
     st = cm.stabilisation
     assert st is not None and len(st.poles) >= 3
     fig = sd.plot.stabilisation(st.poles, frf, orders=st.orders, model=cm)
@@ -78,8 +52,8 @@ def test_stabilisation_marks_the_modes_with_their_intervals(chain):
     assert "identified (95% interval)" in [t.get_text() for t in fig.legends[0].get_texts()]
 
 
-def test_stabilisation_interval_follows_the_level(chain):
-    frf, cm = chain
+def test_stabilisation_interval_follows_the_level(chain_identified):
+    frf, cm, _ = chain_identified
     st = cm.stabilisation
     _, _, lo95, hi95, _ = _model_row(sd.plot.stabilisation(st.poles, frf, model=cm))
     bar, _, lo50, hi50, texts = _model_row(sd.plot.stabilisation(st.poles, frf, model=cm,

@@ -37,6 +37,8 @@ def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=Fal
     """Reference fit of the exact data, and for each in-band reference pole its estimate and
     predicted std in each draw (NaN where the draw has no pole near it).
 
+    ``name`` is a family member's name or a test structure (a held-out one).
+
     ``auto=False``: each draw's poles are searched from the reference's (the model
     structure of the noiseless fit); ``auto=True``: a fresh automatic identification, whose
     choice of model order may change from draw to draw.
@@ -47,7 +49,7 @@ def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=Fal
     d : dict of ndarray (n_draws, n_in_band): "f", "z", "fs", "zs"; and "same_order"
         (n_draws,): the draw's model has as many poles as the reference
     """
-    s = sd.testbeds.structure(name)
+    s = sd.testbeds.structure(name) if isinstance(name, str) else name
     ref = _identify(s.frf(n=n_lines))
     lam = ref.poles[ref.in_band]
     # a draw's pole belongs to a reference pole when it is its nearest and closer than half
