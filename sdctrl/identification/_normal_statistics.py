@@ -165,10 +165,14 @@ def _jacobian(cm, stats, C0, nm, transform):
     theta0 = np.stack([cm.poles.real, cm.poles.imag], axis=1).ravel()
     y0 = _outputs(nm, nm)
     sd_theta = np.sqrt(np.maximum(np.diag(stats.S), 0.0))
-    sd_C = np.sqrt(coefficient_variance(stats))                    # (q, m)
+    # steps from the coefficients' std; those of undetermined (out-of-band) poles are NaN:
+    # their step falls back to the coefficient's scale
+    sd_C = np.sqrt(np.nan_to_num(coefficient_variance(stats), nan=0.0))   # (q, m)
     T_theta = np.zeros((y0.size, theta0.size))
     for a in range(theta0.size):
         h = STEP * sd_theta[a] or 1e-9 * max(np.abs(theta0).max(), 1e-300)
+        if a % 2 == 0 and theta0[a] + h >= 0:    # a pole at the damping floor stays stable
+            h = -h
         th = theta0.copy()
         th[a] += h
         T_theta[:, a] = (_outputs(transform(_model(cm, stats, th, C0)), nm) - y0) / h

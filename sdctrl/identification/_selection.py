@@ -451,6 +451,16 @@ class AutoSelection:
             state = self.best = new
         else:
             self.warn(f"automatic pole selection stopped after {rounds} rounds")
+        return self._final_prune()
+
+    def _final_prune(self):
+        """The best state without poles the last fit pushed to a bound (an out-of-band pole
+        at the band edge would count as an in-band mode), refitted; windowed data keep
+        their rules' state."""
+        w, z, side, ev, info = self.best
+        pr = None if self.windowed else self.prune(w, z, side, ev, info, weak=False)
+        if pr is not None and pr[0].size and np.any(pr[2] == 0):
+            self.best = self._first_fit(*pr)
         return self.best
 
     @staticmethod
