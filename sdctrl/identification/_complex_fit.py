@@ -106,7 +106,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         against the direct level (with the second-difference level, a roving-hammer
         survey's band filled with poles fitting the correlated noise; counting the
         correlation in the test instead merged a blade pair of the cluster's survey and
-        missed a mode of real hammer data).  No threshold depends on the structure.  Close modes: a frequency rejected by the residual scan is retried
+        missed a mode of real hammer data).  No threshold depends on the structure.
+        Close modes (unwindowed data): a frequency rejected by the residual scan is retried
         once the model has changed.
         The search stops when the fit is numerically exact, or after a round whose
         residual-peak candidates were all rejected.

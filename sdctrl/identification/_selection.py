@@ -372,14 +372,16 @@ class AutoSelection:
         w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
         ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
         rejected = [float(c[0]) for j, c in enumerate(cand) if n0 + j not in set(ok)]
-        if self.windowed:
+        if self.windowed:                     # every candidate tried once, never again
             self.tried += [float(c[0]) for c in cand]
+        elif ok.size:
+            # the model changed: what was rejected (or pruned) before is retried, so that a
+            # mode closer than the exclusion (1.5 lines) to one found before is still found
+            self.tried = rejected
+        else:
+            self.tried += rejected
         if not ok.size:
-            self.tried += [] if self.windowed else rejected
             return None
-        # the model changed: what was rejected (or pruned) before is retried, so that a
-        # mode closer than the exclusion (1.5 lines) to one found before is still found
-        self.tried = self.tried if self.windowed else rejected
         keep = np.concatenate([np.arange(n0), ok])
         w2, z2, ev2, info2 = self.fit(w2[keep], z2[keep], sn[keep])
         for j in range(n0, keep.size):
