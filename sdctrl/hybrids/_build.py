@@ -187,7 +187,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
     f_id = np.sqrt(w2_id) / (2 * np.pi)
     f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
-    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi)
+    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi, f_fe, f_id)
     kept = ~_absorbed(nm, mac_pairs, mac_min)
     if c.shape[0] < kept.sum():
         warnings.warn(f"hybrid: {c.shape[0]} sensors for {kept.sum()} measured modes; the "
