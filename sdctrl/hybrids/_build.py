@@ -63,9 +63,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
 
     Built from an identified normal-mode model ``nm`` (as returned by
     :func:`sdctrl.normal_modes` with its default: the band's poles as normal modes, the
-    others as identified residual dynamics ``nm.residual``, which the hybrid does not carry:
-    its appended FE modes and residual terms, fitted to ``nm``'s whole response at the
-    tested I/O, stand for them) and an FE model ``fe``:
+    others as identified residual dynamics ``nm.residual``, which the default hybrid does
+    not carry: its appended FE modes and residual terms, fitted to ``nm``'s whole response
+    at the tested I/O, stand for them; ``residual="tested"`` keeps them there) and an FE
+    model ``fe``:
 
     - measured modes: the identified ``Omega`` (frequencies) and ``Gamma`` (full damping
       matrix, non-proportional terms kept), shapes expanded onto all FE DOFs (4.7).  By
