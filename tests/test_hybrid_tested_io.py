@@ -72,6 +72,7 @@ def test_tested_hybrid_reproduces_the_identified_model_at_the_tested_io():
     assert np.array_equal(h.residual.poles[:m], nm.residual.poles)
     assert h.residual.m == m + 1 and h.residual.reasons[-1].startswith("residual flex")
     assert np.array_equal(h.F, nm.F) and h.E is None
+    assert h.construction.residual.variant.startswith("tested I/O kept; appended modes as in")
     # realised: the StateSpace carries the same FRF (F exactly by rigid-body modes, 2.24)
     G = h.to_statespace("displacement", rigid_body=True)
     Hs = np.moveaxis(G(2j * np.pi * f[::40]), -1, 0)

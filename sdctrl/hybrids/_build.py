@@ -239,9 +239,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     tested = TestedIO(modes.w2, modes.Gamma, c @ modes.shapes + modes.offset, modes.phib,
                       kinds)
     if residual == "tested":
-        cphi, carried, res = keep_tested(nm, built.absorbed, tested,
-                                         float(band_lines(nm, np.sqrt(w2_id[kept]))[-1]))
-        built = replace(built, residual_flexibility=carried, mass_correction=None)
+        cphi, res, built = _keep_tested(nm, built, tested,
+                                        float(band_lines(nm, np.sqrt(w2_id[kept]))[-1]))
         E, F = None, nm.F
     else:
         cphi, E = _realise_residual(tested.cphi, modes.w2, modes.phib, kinds, parts["E"])
@@ -251,6 +250,15 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
                        shapes=modes.shapes, dofs=fe.dofs, fe=fe,
                        sensor_c=c, actuator_b=loads, kind=kinds,
                        n_static=int(np.sum(kinds == "static")), construction=built)
+
+
+def _keep_tested(nm, built, tested, w_top):
+    """``residual="tested"``: observabilities, residual dynamics and the construction record
+    (:func:`sdctrl.hybrids._tested_io.keep_tested`)."""
+    cphi, carried, res = keep_tested(nm, built.absorbed, tested, w_top)
+    variant = f"tested I/O kept; appended modes as in {built.residual.variant}"
+    return cphi, res, replace(built, residual_flexibility=carried, mass_correction=None,
+                              residual=replace(built.residual, variant=variant))
 
 
 def _realise_residual(cphi, w2, phib, kinds, E):
