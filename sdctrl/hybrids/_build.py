@@ -20,6 +20,7 @@ in :mod:`sdctrl.hybrids._hybrid_basis`; this module builds the model (5.1.1).
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 
@@ -29,6 +30,7 @@ from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.hybrids._hybrid_basis import (
     ModeSet,
+    band_lines,
     build_basis,
     fe_modes_upto,
     select_residual,
@@ -43,11 +45,12 @@ from sdctrl.hybrids._hybrid_records import (
 )
 from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
+from sdctrl.hybrids._tested_io import TestedIO, keep_tested
 
 __all__ = ["hybrid", "pairing_report"]
 
 _EXPANSIONS = ("regularised", "paired")
-_RESIDUALS = ("identified", "fe")
+_RESIDUALS = ("identified", "fe", "tested")
 
 
 # ----------------------------------------------------------------------------------------
@@ -60,9 +63,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
 
     Built from an identified normal-mode model ``nm`` (as returned by
     :func:`sdctrl.normal_modes` with its default: the band's poles as normal modes, the
-    others as identified residual dynamics ``nm.residual``, which the hybrid does not carry:
-    its appended FE modes and residual terms, fitted to ``nm``'s whole response at the
-    tested I/O, stand for them) and an FE model ``fe``:
+    others as identified residual dynamics ``nm.residual``, which the default hybrid does
+    not carry: its appended FE modes and residual terms, fitted to ``nm``'s whole response
+    at the tested I/O, stand for them; ``residual="tested"`` keeps them there) and an FE
+    model ``fe``:
 
     - measured modes: the identified ``Omega`` (frequencies) and ``Gamma`` (full damping
       matrix, non-proportional terms kept), shapes expanded onto all FE DOFs (4.7).  By
@@ -98,6 +102,15 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       ``E`` is carried by the static correction modes' observabilities (2.22), so that
       the realisation is exact (``construction.residual_flexibility``).
       ``residual="fe"``: the thesis's hybrid, FE frequencies and no residual term;
+      ``residual="tested"``: at the tested I/O the model keeps what the test measured
+      (:mod:`sdctrl.hybrids._tested_io`): the measured modes, ``nm.residual`` (the
+      out-of-band poles as complex-mode terms, 3.7), ``nm.E`` (a correction term far above
+      the band) and ``nm.F``, with every other mode unobserved at the tested sensors (an
+      offset of ``-c phi``, dropped by ``with_io`` like ``E``); it reproduces ``nm`` there
+      (family of test structures: within 1% of its logLS, against 1.4-10x above it for
+      ``"identified"``), while the FE modes keep their shapes for the predictions.  Its
+      StateSpace carries the residual block (more states) and realises the improper
+      residual terms through the correction filter (2.19)-(2.20);
     - optionally static correction modes for ``static_b``.
 
     The model carries its FE model and test I/O (``fe``, ``sensor_c``, ``actuator_b``),
@@ -133,8 +146,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         absorbed (out-of-band poles).
     expansion : {"regularised", "paired"}
         Expansion basis and fit, see above.
-    residual : {"identified", "fe"}
-        Residual terms from the test (selected against ``nm``) or the thesis's FE modes.
+    residual : {"identified", "fe", "tested"}
+        Residual terms from the test (selected against ``nm``), the thesis's FE modes, or
+        the test's own residual dynamics, ``E`` and ``F`` kept at the tested I/O (needs an
+        ``nm`` that has some: as :func:`sdctrl.normal_modes` builds it).
 
     Returns
     -------
@@ -183,24 +198,22 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
                                ("residual", residual, _RESIDUALS)):
         if val not in allowed:
             raise ValueError(f"{name} must be one of {allowed}, got {val!r}")
+    if residual == "tested" and nm.E is None and nm.F is None and nm.residual is None:
+        raise ValueError("residual='tested' needs an nm with residual terms (E, F or "
+                         "residual dynamics, as sd.normal_modes builds it); this nm has none: "
+                         "use residual='identified'")
     c, b = _test_io(fe, nm, sensor_c, actuator_b)
     w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
     f_id = np.sqrt(w2_id) / (2 * np.pi)
     f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
-    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi)
+    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi, f_fe, f_id)
     kept = ~_absorbed(nm, mac_pairs, mac_min)
     if c.shape[0] < kept.sum():
         warnings.warn(f"hybrid: {c.shape[0]} sensors for {kept.sum()} measured modes; the "
                       "expansion (4.7) needs more sensors than modes to be determined",
                       stacklevel=2)
-    poor = np.flatnonzero(mac_pairs[kept] < mac_min)
     km = np.flatnonzero(kept)
-    if poor.size:
-        desc = ", ".join(f"test mode {km[j]} ({f_id[km[j]]:.2f} Hz) ~ FE mode "
-                         f"{fe_idx[km[j]]} ({f_fe[fe_idx[km[j]]]:.2f} Hz), MAC "
-                         f"{mac_pairs[km[j]]:.2f}" for j in poor)
-        warnings.warn(f"hybrid: poor FE/test mode pairing (MAC < {mac_min:g}): {desc}",
-                      stacklevel=2)
+    poor = _warn_poor(km, mac_pairs, mac_min, fe_idx, f_id, f_fe)
     _warn_left_out(nm)
     loads, unexcited = _loads(fe, nm, b)
     if unexcited:
@@ -223,13 +236,29 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept), expansion=base.A,
         mean_damping=zeta_mean, fe_frequency_hz=f_fe, residual=ResidualChoice(**report),
         residual_flexibility=parts["E"], mass_correction=parts.get("mass_correction"))
-    cphi, E = _realise_residual(c @ modes.shapes + modes.offset, modes.w2, modes.phib, kinds,
-                                parts["E"])
-    return HybridModel(np.diag(modes.w2), modes.Gamma, cphi, modes.phib, E=E,
-                       sensors=nm.sensors, actuators=nm.actuators, shapes=modes.shapes,
-                       dofs=fe.dofs, fe=fe,
+    tested = TestedIO(modes.w2, modes.Gamma, c @ modes.shapes + modes.offset, modes.phib,
+                      kinds)
+    if residual == "tested":
+        cphi, res, built = _keep_tested(nm, built, tested,
+                                        float(band_lines(nm, np.sqrt(w2_id[kept]))[-1]))
+        E, F = None, nm.F
+    else:
+        cphi, E = _realise_residual(tested.cphi, modes.w2, modes.phib, kinds, parts["E"])
+        F = res = None
+    return HybridModel(np.diag(modes.w2), modes.Gamma, cphi, modes.phib, E=E, F=F,
+                       residual=res, sensors=nm.sensors, actuators=nm.actuators,
+                       shapes=modes.shapes, dofs=fe.dofs, fe=fe,
                        sensor_c=c, actuator_b=loads, kind=kinds,
                        n_static=int(np.sum(kinds == "static")), construction=built)
+
+
+def _keep_tested(nm, built, tested, w_top):
+    """``residual="tested"``: observabilities, residual dynamics and the construction record
+    (:func:`sdctrl.hybrids._tested_io.keep_tested`)."""
+    cphi, carried, res = keep_tested(nm, built.absorbed, tested, w_top)
+    variant = f"tested I/O kept; appended modes as in {built.residual.variant}"
+    return cphi, res, replace(built, residual_flexibility=carried, mass_correction=None,
+                              residual=replace(built.residual, variant=variant))
 
 
 def _realise_residual(cphi, w2, phib, kinds, E):
@@ -254,6 +283,18 @@ def _realise_residual(cphi, w2, phib, kinds, E):
     cphi[:, r] += D
     tiny = 1e-9 * max(np.abs(E).max(), 1e-300)
     return cphi, (left if np.abs(left).max() > tiny else None)
+
+
+def _warn_poor(km, mac_pairs, mac_min, fe_idx, f_id, f_fe) -> np.ndarray:
+    """Kept test modes ``km`` poorly paired (MAC below ``mac_min``), warned about."""
+    poor = np.flatnonzero(mac_pairs[km] < mac_min)
+    if poor.size:
+        desc = ", ".join(f"test mode {km[j]} ({f_id[km[j]]:.2f} Hz) ~ FE mode "
+                         f"{fe_idx[km[j]]} ({f_fe[fe_idx[km[j]]]:.2f} Hz), MAC "
+                         f"{mac_pairs[km[j]]:.2f}" for j in poor)
+        warnings.warn(f"hybrid: poor FE/test mode pairing (MAC < {mac_min:g}): {desc}",
+                      stacklevel=3)
+    return poor
 
 
 def _warn_left_out(nm) -> None:

@@ -22,6 +22,9 @@ __all__ = ["MAC_POOR", "expand", "expand_regularised", "loo_prior", "pair_modes"
 
 #: MAC below which a FE/test pair is reported as poor (with a warning)
 MAC_POOR = 0.8
+#: an FE mode more than this factor away in frequency is not paired with a test mode that
+#: has a nearer one (:func:`pair_modes`)
+PAIR_RATIO = 2.0
 
 
 def expand(phi_fe, c, cphi_id, rcond: float = 1e-10):
@@ -242,8 +245,14 @@ def loo_prior(G, lam, Y, pair, *, spread=None, noise=None):
     return spreads[i], noises[j]
 
 
-def pair_modes(cphi_fe, cphi_id):
+def pair_modes(cphi_fe, cphi_id, f_fe=None, f_id=None, ratio: float = PAIR_RATIO):
     """Pair test modes with FE modes by maximal total MAC (4.9), one FE mode per test mode.
+
+    With the frequencies given, a test mode is paired only with FE modes within a factor
+    ``ratio`` of its frequency (when it has any): at a few tens of sensors a far mode can
+    reach a larger MAC by chance (a 48 Hz test mode with a 246 Hz FE mode, MAC 0.63, on the
+    ladder), while an FE model off by a factor ``ratio`` in frequency is not a model of
+    that mode.  The MAC of each pair is reported as is.
 
     Parameters
     ----------
@@ -251,6 +260,12 @@ def pair_modes(cphi_fe, cphi_id):
         FE modal observabilities at the test sensors, ``m >= n``.
     cphi_id : array_like, shape (ns, n)
         Identified modal observabilities.
+    f_fe : array_like, shape (m,), optional
+        FE frequencies (Hz).
+    f_id : array_like, shape (n,), optional
+        Test frequencies (Hz).
+    ratio : float
+        Largest frequency ratio of a pair (both given).
 
     Returns
     -------
@@ -264,7 +279,14 @@ def pair_modes(cphi_fe, cphi_id):
     from scipy.optimize import linear_sum_assignment
 
     macs = mac(cphi_fe, cphi_id)
-    rows, cols = linear_sum_assignment(-macs)
+    score = macs.copy()
+    if f_fe is not None and f_id is not None:
+        f_fe, f_id = np.asarray(f_fe, float), np.asarray(f_id, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            far = np.abs(np.log(f_fe[:, None] / f_id[None, :])) > np.log(ratio)
+        far &= ~np.all(far, axis=0, keepdims=True)     # a mode with no near FE mode: any
+        score[far] -= 2.0                               # below every MAC in [0, 1]
+    rows, cols = linear_sum_assignment(-score)
     index = np.empty(macs.shape[1], int)
     index[cols] = rows
     return index, macs[index, np.arange(macs.shape[1])], macs

@@ -36,8 +36,8 @@ from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.hybrids._expansion import expand, expand_regularised
 from sdctrl.hybrids._residual_mass import mass_bounded, mass_fit
 
-__all__ = ["HybridBasis", "ModeSet", "build_basis", "fe_modes_upto", "select_residual",
-           "stack_parts", "tested_offset"]
+__all__ = ["HybridBasis", "ModeSet", "band_lines", "build_basis", "fe_modes_upto",
+           "select_residual", "stack_parts", "tested_offset"]
 
 #: low FE modes: eigenvalue below this fraction of the lowest paired FE eigenvalue
 LOW_FRACTION = 0.25
@@ -178,7 +178,7 @@ def _orthogonal_to(fe, X, w2, S):
 # ----------------------------------------------------------------------------------------
 # residual terms at the tested I/O
 # ----------------------------------------------------------------------------------------
-def _grid(nm, w_id):
+def band_lines(nm, w_id):
     """Frequency lines (rad/s) of the test band: ``nm.properness.band`` or the measured
     modes' range."""
     band = None if nm.properness is None else nm.properness.band
@@ -231,7 +231,7 @@ def select_residual(nm, kept, base: HybridBasis, c, phib_measured, loads, zeta: 
         ``{"variant": name, "scores": {name: logLS}, "kappa": float}``.
     """
     w_id = np.sqrt(np.clip(np.diag(nm.Omega), 0, None))
-    w = _grid(nm, w_id[kept])
+    w = band_lines(nm, w_id[kept])
     Href = nm.frf(w / (2 * np.pi)).H
     kept_modal = _sub(nm, kept)
     R_t = Href - kept_modal.frf(w / (2 * np.pi)).H

@@ -58,7 +58,9 @@ class ResidualChoice(FrozenState):
     Attributes
     ----------
     variant : str
-        The kept variant (``"kappa, mass+E"``, ``"kappa, E"``, ``"fe"``...).
+        The kept variant (``"kappa, mass+E"``, ``"kappa, E"``, ``"fe"``...; with
+        ``residual="tested"``: ``"tested I/O kept; appended modes as in <variant>"``, whose
+        ``kappa`` alone matters there, the fits being replaced at the tested I/O).
     scores : dict of str to float
         logLS distance to the identified model at the tested I/O of every variant tried
         (empty when only one was possible).

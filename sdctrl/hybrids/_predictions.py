@@ -70,7 +70,8 @@ class HybridModel(NormalModeModel):
         FE DOF labels of the rows of ``shapes``.
     omega_c, F, properness, transformation, n_static, residual, omega_f
         As for :class:`~sdctrl.NormalModeModel` (``n_static``: the modes of kind ``"static"``;
-        ``residual``: None, a hybrid carries no residual dynamics of its own).
+        ``residual``: the identified residual dynamics kept at the tested I/O with
+        ``residual="tested"`` (:func:`sdctrl.hybrid`), else None).
     std : dict, optional
         One standard deviation of each entry of ``Omega``, ``Gamma``, ``cphi``, ``phib``.
     fe : FEModel, optional

@@ -1,0 +1,174 @@
+"""What a hybrid model keeps of the test at the tested inputs and outputs (thesis 5.1.1,
+beyond it).
+
+At the tested I/O the test has measured the whole response, not only its normal modes: the
+identified model ``nm`` holds, besides the in-band normal modes, the out-of-band poles kept
+as complex-mode residual dynamics (3.7, ``nm.residual``), the residual flexibility ``E``
+and the residual mass ``F`` (2.19)-(2.24).  The hybrid's appended FE modes stand for the
+same out-of-band dynamics, but with the FE model's errors (a wrong FE mode can land in the
+band).  So, at the tested sensors, the hybrid keeps what the test measured:
+
+- the measured modes with their identified observabilities ``(c phi)_ID`` and ``phib``;
+- the identified residual dynamics, ``E`` and ``F`` (and, as complex-mode terms, the
+  identified normal modes that no FE mode pairs with: ``absorbed``);
+- the appended and low FE modes unobserved there (their tested-sensor observabilities
+  offset to zero, as the identified ``E`` is carried, 2.22), so they are not counted twice;
+- the static correction modes of the test inputs observed with their FE shapes plus an
+  offset ``D`` fitted so that the model reproduces ``nm`` over the band (the residual
+  flexibility carried by the correction modes, 2.22, as :func:`sdctrl.hybrid` always did).
+
+The FE modes keep their shapes: predictions at untested outputs and inputs
+(:meth:`~sdctrl.hybrids.HybridModel.with_io`, which drops the tested-sensor offsets) and
+modifications (5.2)-(5.4) use them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.modal._residual_dynamics import ResidualDynamics
+
+__all__ = ["ABSORBED", "TestedIO", "keep_tested"]
+
+#: reason recorded for an identified normal mode absorbed into the residual dynamics
+ABSORBED = "absorbed by the hybrid: no FE mode pairs with it (MAC below mac_min)"
+
+
+@dataclass(frozen=True, eq=False)
+class TestedIO:
+    """The hybrid's modes and what it carries at the tested I/O (:func:`keep_tested`).
+
+    Attributes
+    ----------
+    w2 : ndarray, shape (n,)
+        ``omega^2`` of the hybrid's modes (rad/s)^2.
+    Gamma : ndarray, shape (n, n)
+        Their damping (rad/s).
+    cphi : ndarray, shape (ns, n)
+        Observabilities at the tested sensors (FE shapes plus the offsets).
+    phib : ndarray, shape (n, na)
+        Controllabilities of the tested inputs.
+    kind : ndarray of str, shape (n,)
+        ``"measured"``, ``"fe"``, ``"residual"``, ``"static"``.
+    """
+
+    w2: np.ndarray
+    Gamma: np.ndarray
+    cphi: np.ndarray
+    phib: np.ndarray
+    kind: np.ndarray
+
+
+def keep_tested(nm, absorbed, modes: TestedIO, w_max: float):
+    """Observabilities and residual dynamics that keep ``nm`` at the tested I/O.
+
+    Parameters
+    ----------
+    nm : NormalModeModel
+        The identified model.
+    absorbed : ndarray of int
+        Modes of ``nm`` the hybrid does not keep as measured modes.
+    modes : TestedIO
+        The hybrid's modes, observabilities ``c phi + offset`` of :func:`sdctrl.hybrid`.
+    w_max : float
+        Top of the test band (rad/s).
+
+    Returns
+    -------
+    cphi : ndarray, shape (ns, n)
+        Tested-sensor observabilities: the measured modes' as given, every other mode's
+        zero (an offset of ``-c phi``, carried as ``E`` is, 2.22).
+    offset_flexibility : ndarray, shape (ns, na), or None
+        The static term those offsets add through the static correction modes of the test
+        inputs, ``(cphi - c V) diag(1/w^2) phib`` (minus the FE static response that the
+        test's ``E`` replaces); None without correction modes.
+    residual : ResidualDynamics or None
+        ``nm.residual``, the absorbed modes as complex-mode terms (3.7) and ``nm.E`` as a
+        correction term far above the band (:func:`flexibility_term`).
+    """
+    kind = modes.kind
+    meas = kind == "measured"
+    r = (kind == "residual") & (modes.w2 > 0)
+    cphi = np.array(modes.cphi, float)
+    off = None
+    if np.any(r):
+        off = -cphi[:, r] @ (modes.phib[r] / modes.w2[r, None])
+    cphi[:, ~meas] = 0.0
+    residual = _with_absorbed(nm, absorbed)
+    if nm.E is not None:
+        residual = _joined(residual, flexibility_term(nm.E, CUTOFF * w_max, nm.sensors,
+                                                      nm.actuators))
+    return cphi, off, residual
+
+
+#: the test's E is carried by a correction term this many times above the band's top: in
+#: the band it differs from E by ``(w/w_c)^2 + 2 zeta w/w_c`` <= 0.8% of E's size, and the
+#: state-space form stays within reach of the band integrals of ``sd.rms`` (a term 300x
+#: above the band put the band RMS 20% off)
+CUTOFF = 30.0
+#: its damping ratio ``zeta``
+CUTOFF_DAMPING = 0.1
+#: reason recorded for it
+FLEXIBILITY = ("residual flexibility E of the test (2.19)-(2.20), a correction term far "
+               "above the band")
+
+
+def flexibility_term(E, wc: float, sensors, actuators) -> ResidualDynamics:
+    """``E wc^2 / (s^2 + 2 zeta wc s + wc^2)`` as one complex-mode term (3.7).
+
+    Its static value is ``E`` and, in a band far below ``wc``, it differs from ``E`` by
+    ``2 zeta w / wc`` (relative): the static term of a tested I/O realised exactly in the
+    state-space form (3.26)-(3.33) for every quantity, at that I/O only.
+
+    Parameters
+    ----------
+    E : ndarray, shape (ns, na)
+        Static (residual flexibility) term of the displacement response.
+    wc : float
+        Cut-off (rad/s).
+    sensors, actuators : sequence of str
+        Labels of the I/O it belongs to.
+
+    Returns
+    -------
+    ResidualDynamics
+    """
+    z = CUTOFF_DAMPING
+    lam = wc * (-z + 1j * np.sqrt(1 - z**2))
+    R = np.asarray(E, float)[None] * wc**2 / (2j * lam.imag)
+    return ResidualDynamics(np.array([lam]), R, sensors=sensors, actuators=actuators,
+                            reasons=(FLEXIBILITY,))
+
+
+def _joined(a, b):
+    """Two residual blocks on the same I/O as one (``a`` may be None)."""
+    if a is None:
+        return b
+    return ResidualDynamics(np.concatenate([a.poles, b.poles]),
+                            np.concatenate([a.residues, b.residues]), sensors=a.sensors,
+                            actuators=a.actuators, reasons=a.reasons + b.reasons)
+
+
+def _with_absorbed(nm, absorbed):
+    """``nm.residual`` with the absorbed normal modes of ``nm`` as complex-mode terms."""
+    res = nm.residual
+    k = np.asarray(absorbed, int)
+    if k.size == 0:
+        return res
+    Om, Ga = nm.Omega[np.ix_(k, k)], nm.Gamma[np.ix_(k, k)]
+    n = k.size
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Om, -Ga]])
+    lam, V = np.linalg.eig(A)
+    up = lam.imag > 0
+    lam, psi = lam[up], V[:n, up]
+    psi = psi / np.sqrt(np.einsum("ij,ij->j", psi, 2 * lam[None, :] * psi + Ga @ psi))
+    R = np.einsum("ij,kj->jik", nm.cphi[:, k] @ psi, nm.phib[k].T @ psi)   # (2.9)
+    poles, reasons = list(lam), [ABSORBED] * lam.size
+    if res is not None:
+        R = np.concatenate([res.placed(nm.sensors, nm.actuators), R])
+        poles, reasons = list(res.poles) + poles, list(res.reasons) + reasons
+    return ResidualDynamics(np.array(poles), R, sensors=nm.sensors, actuators=nm.actuators,
+                            reasons=tuple(reasons))
