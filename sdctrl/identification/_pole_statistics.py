@@ -39,11 +39,12 @@ The point variance ``|H|^2 (1 - coherence)`` (3.59) is that of an FRF whose cohe
 point's own signal-to-noise ratio.  For an H1 estimate from ``n_d`` averages with its
 ordinary coherence ``g`` estimated from the same averages, ``E[1 - g] = (1 - g_true)
 (n_d - 1) / n_d`` and the estimate's variance is ``|H|^2 E[1 - g] / (n_d - 1)``: (3.59)
-overstates it ``n_d - 1`` times (conservative; exact for two averages).  The FRF does not
-record ``n_d``, and neither the coherence's scatter over the lines nor the fit residual
-(dominated by the model's own error on real tests) tells it reliably: callers who know it
-divide (3.59) by ``n_averages = n_d - 1``
-(:func:`~sdctrl.identification._variance.residue_std`).  A coherence identically 1 (one
+overstates it ``n_d - 1`` times (conservative; exact for two averages).  Neither the
+coherence's scatter over the lines nor the fit residual (dominated by the model's own error
+on real tests) tells ``n_d`` reliably: the FRF records it (``FRF.averages``, set by
+:func:`~sdctrl.impact_frf` to the number of hits) and the statistics divide (3.59) by
+``n_d - 1`` (:func:`~sdctrl.identification._variance.recorded_divisor`); an FRF that does
+not record it keeps the conservative variance.  A coherence identically 1 (one
 record: no information on the noise) falls back to the residual.
 
 Without a coherence, the residual's second differences over correlated lines keep only

@@ -126,7 +126,7 @@ def _build_hybrid(**values):
 
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
-                "units", "exponential_tau"), kinds={"freq": "f", "H": "c", "coherence": "f"})
+                "units", "exponential_tau", "averages"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"},
                build=_build_complex)
