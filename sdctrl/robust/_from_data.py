@@ -38,6 +38,10 @@ from sdctrl.robust._uncertainty import UncertainModel, uncertain
 __all__ = ["uncertain_from_data"]
 
 _KEYS = {"Gamma": "dGamma", "Omega": "dOmega", "phib": "db", "cphi": "dc"}
+#: largest bound on a residual pole's decay rate ``-Re l``, as a fraction of it: a passive
+#: structure's poles are stable, and a bound reaching the axis would make every loop's margin
+#: that of an open-loop instability the data do not show
+PASSIVE_DECAY = 0.5
 
 
 def uncertain_from_data(models, level: float = 0.95) -> UncertainModel:
@@ -132,6 +136,8 @@ def _residual_bounds(model, z: float) -> tuple[dict, str]:
         return {}, ""
     dp, dr = (np.nan_to_num(z * a.real, nan=0.0) + 1j * np.nan_to_num(z * a.imag, nan=0.0)
               for a in (res.pole_std, res.placed(model.sensors, model.actuators, std=True)))
+    # passivity (as Gamma's bounds in 5.2.2): a decay rate moves by at most half its value
+    dp = np.minimum(dp.real, PASSIVE_DECAY * np.abs(res.poles.real)) + 1j * dp.imag
     known = int(np.sum(np.isfinite(res.pole_std.real) & np.isfinite(res.pole_std.imag)))
     note = f"; residual dynamics: {known} of {res.m} poles uncertain"
     if known < res.m:
