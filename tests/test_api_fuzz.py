@@ -440,7 +440,7 @@ ENTRIES = [
           _plus(cm_args, coherence=np.full(H.shape, 0.9), n_averages=10),
           {"residues": CPLX, "coherence": array().but(negative=REFUSE, huge=REFUSE,
                                                       none=OK),   # no coherence: residual
-           "n_averages": integer(1)}),
+           "n_averages": integer(1, optional=True)}),   # None: from frf.averages
     # --- identification (chapter III) -------------------------------------------------
     Entry("initial_poles", lambda a: sd.initial_poles(_frf(a), **a),
           lambda: {"freq": FREQ.copy(), "H": H.copy(), "band": (6.0, 35.0), "n": 2,

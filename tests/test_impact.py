@@ -83,6 +83,7 @@ def test_impact_frf_layout_and_window(noisy):
     k = np.searchsorted(frf.freq, FN)
     assert np.all(frf.coherence[k] > 0.99)
     assert sd.impact_frf(_hits(nh=1), FS).exponential_tau is None
+    assert frf.averages == 5 and sd.impact_frf(_hits(nh=1), FS).averages == 1
 
 
 def test_damping_corrected_for_exponential_window(noisy):

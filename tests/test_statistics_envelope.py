@@ -18,6 +18,7 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pytest
 
 import sdctrl as sd
 
@@ -58,17 +59,17 @@ def _drawn_envelope(fig, n_lines):
 
 
 def test_envelope_from_the_data_holds_the_truth_at_the_stated_rate():
-    """Plate, 3 sensors x 1 shaker, 200 lines, 1% noise, 50 draws.  Measured with one
-    out-of-band pole per side: the 95% envelopes held the true FRF at 86% of the in-band
-    lines, the 50% ones at 54%; now 57% and 27% (see below)."""
+    """Plate, 3 sensors x 1 shaker, 200 lines, 1% noise, 50 draws.  The 95% envelopes hold
+    the true FRF at 98.0% of the in-band lines, the 50% ones at 67.9% (history below)."""
     s = sd.testbeds.structure("plate")
     exact = _subtest(s.frf(n=N_LINES))
     ref, nm0 = _identify(exact)
     # the model structure of the draws: the band's poles and the nearest out-of-band pole on
     # each side.  The identification adds out-of-band poles while significant (six here,
     # two of them not determined by this 3 x 1 subtest: frequency std NaN); the uncertain
-    # model holds no uncertainty for residual dynamics, which then wander from draw to draw
-    # (coverage 0.38 with all of them) -- left for issue 24's next step
+    # model bounds the residual dynamics the data determine (their poles' and residues' std);
+    # the undetermined ones wander from draw to draw (coverage 0.18 over 8 draws with all
+    # of them: the draws' free poles land anywhere out of band)
     f0 = ref.frequency
     below, above = np.flatnonzero(f0 < ref.band[0]), np.flatnonzero(f0 > ref.band[1])
     keep = ref.in_band.copy()
@@ -105,19 +106,27 @@ def test_envelope_from_the_data_holds_the_truth_at_the_stated_rate():
             if level == 0.95:
                 widths.append(np.median([np.median(hi[inb] / lo[inb]) for lo, hi in env]))
     r95, r50 = np.mean(rates[0.95]), np.mean(rates[0.5])
-    # measured 0.57 and 0.27 since the identification adds out-of-band poles (issue 22; 0.86
-    # and 0.54 before): the draws' residual dynamics vary without an uncertainty in the
-    # uncertain model -- a gap of issue 24, locked here; the stated rates are the target
-    assert 0.5 <= r95 <= 1.0, r95
-    assert 0.2 <= r50 <= 0.6, r50
-    # the envelope is not vacuous: a few percent wide at 1% noise (measured 2.4%)
-    assert 1.005 < np.median(widths) < 1.1, np.median(widths)
+    # measured 0.980 and 0.679 with the residual dynamics uncertain (issue 24).  History:
+    # 0.86 / 0.54 with one free out-of-band pole per side; 0.57 / 0.27 once identification
+    # added the significant out-of-band poles and the uncertain model held them certain (the
+    # draws' residual dynamics moved outside the envelope).  The 95% rate is within 10 points
+    # of the stated one; the 50% envelope is conservative by 18 points: it is the hull of a
+    # box of 53 independent intervals (each at the level), wider than the FRF's own 50%
+    # band -- on the safe side for a robustness check, a gap stated here
+    print(f"\ncoverage 95%: {r95:.3f}, 50%: {r50:.3f}, width {np.median(widths):.4f}")
+    assert 0.85 <= r95 <= 1.0, r95
+    assert 0.4 <= r50 <= 0.75, r50
+    # the envelope is not vacuous: a few percent wide at 1% noise (measured 9.9%; 2.4% with
+    # the residual dynamics certain)
+    assert 1.005 < np.median(widths) < 1.15, np.median(widths)
 
 
 def test_uncertain_model_carries_the_residual_dynamics():
     """The identified normal-mode model keeps out-of-band poles as residual dynamics; its
     uncertain model responds as it does (nominal, perturbed, LFT), the residual dynamics
-    certain: a perturbation changes the response exactly as it changes the modes alone."""
+    bounded by their statistics: a perturbation of the modes' parameters changes the
+    response exactly as it changes the modes alone, one of the residual dynamics' moves
+    their poles and residues (closed form 3.7), and the LFT is exact."""
     exact = _subtest(sd.testbeds.structure("plate").frf(n=N_LINES, noise=0.01, seed=0))
     _, nm = _identify(exact)
     assert nm.residual is not None and nm.residual.m >= 1
@@ -127,17 +136,39 @@ def test_uncertain_model_carries_the_residual_dynamics():
     want = nm.replace(F=None).frf(f).H                             # displacement
     nominal = np.moveaxis(um.nominal(w), 2, 0)
     assert np.abs(nominal - want).max() < 1e-9 * np.abs(want).max()
-    assert um.nominal.nstates == 2 * nm.n + 2 * nm.residual.m      # one input: one dyad
+    assert um.nominal.nstates == 2 * nm.n + 2 * nm.residual.m      # one input: one state
     assert "r0_0" in um.nominal.state_labels
-    # a perturbation: the same change as the modes alone (the residual dynamics certain)
+    res = nm.residual
+    assert res.pole_std is not None and np.all(np.isfinite(res.pole_std.real))
+    kinds = [p[1][0] for p in um.params]
+    n_res = sum(k in ("rsig", "romg", "rre", "rim") for k in kinds)
+    assert n_res == 2 * res.m + 2 * res.m * nm.ns                 # poles, residues (3 x 1)
+    np.testing.assert_allclose(um.dpoles.real, np.minimum(1.959964 * res.pole_std.real,
+                                                          0.5 * np.abs(res.poles.real)), rtol=1e-6)
+    np.testing.assert_allclose(um.dpoles.imag, 1.959964 * res.pole_std.imag, rtol=1e-6)
+    # a perturbation of the modes only: the same change as the modes alone
     bare = sd.NormalModeModel(nm.Omega, nm.Gamma, nm.cphi, nm.phib, E=nm.E,
                               sensors=nm.sensors, actuators=nm.actuators)
     ub = bare.uncertain(dGamma=um.dGamma, dOmega=um.dOmega, db=um.db, dc=um.dc)
     d = np.random.default_rng(1).uniform(-1, 1, len(um.params))
-    dH = np.moveaxis(um.perturbed(d)(w) - um.nominal(w), 2, 0)
-    dHb = np.moveaxis(ub.perturbed(d)(w) - ub.nominal(w), 2, 0)
+    modal = np.array([k not in ("rsig", "romg", "rre", "rim") for k in kinds])
+    dH = np.moveaxis(um.perturbed(np.where(modal, d, 0))(w) - um.nominal(w), 2, 0)
+    dHb = np.moveaxis(ub.perturbed(d[modal])(w) - ub.nominal(w), 2, 0)
     assert np.abs(dHb).max() > 1e-3 * np.abs(want).max()         # the perturbation matters
     assert np.abs(dH - dHb).max() < 1e-7 * np.abs(dHb).max()
+    # a perturbation of the residual dynamics only: poles and residues moved (3.7)
+    lam, R = res.poles.astype(complex), res.residues.astype(complex)
+    for (_, (kind, j, k), _, beta), dk in zip(um.params, d):
+        step = beta * dk * (1j if kind in ("romg", "rim") else 1.0)
+        if kind in ("rsig", "romg"):
+            lam[j] += step
+        elif kind in ("rre", "rim"):
+            R[j, k, 0] += step                                   # one actuator: k = s
+    moved = sd.modal.ResidualDynamics(lam, R, sensors=res.sensors, actuators=res.actuators)
+    Hr = np.moveaxis(um.perturbed(np.where(modal, 0, d))(w), 2, 0)
+    want_r = nm.replace(F=None, residual=moved).frf(f).H
+    assert np.abs(Hr - nominal).max() > 1e-3 * np.abs(want).max()
+    assert np.abs(Hr - want_r).max() < 1e-9 * np.abs(want_r).max()
     # the LFT closed with the same deltas is that perturbed model
     P, blocks = um.lft()
     r = sum(rep for _, rep in blocks)
@@ -148,3 +179,45 @@ def test_uncertain_model_carries_the_residual_dynamics():
     Hp = np.moveaxis(um.perturbed(d)(w), 2, 0)
     assert P.nstates == um.nominal.nstates
     assert np.abs(Hc - Hp).max() < 1e-8 * np.abs(Hp).max()
+
+
+def test_uncertain_residual_dynamics_round_trip(tmp_path):
+    """An uncertain model with bounded residual dynamics is saved and loaded as it was: the
+    same blocks, the same perturbed model; the residual dynamics' statistics kept."""
+    exact = _subtest(sd.testbeds.structure("plate").frf(n=N_LINES, noise=0.01, seed=0))
+    _, nm = _identify(exact)
+    um = sd.uncertain_from_data(nm, 0.9)
+    back = sd.load(sd.save(um, tmp_path / "um"))
+    assert back.blocks == um.blocks and back.source == um.source
+    np.testing.assert_array_equal(back.dresidues, um.dresidues)
+    np.testing.assert_array_equal(back.model.residual.residue_std, nm.residual.residue_std)
+    d = np.linspace(-1, 1, len(um.params))
+    assert np.array_equal(um.perturbed(d).A, back.perturbed(d).A)
+    assert np.array_equal(um.perturbed(d).C, back.perturbed(d).C)
+
+
+def test_robust_stability_with_uncertain_residual_dynamics():
+    """Velocity feedback at the plate subtest's driving point, on the uncertain model from the
+    data with its residual dynamics bounded: the certified margin lies below the destabilising
+    perturbation found (and that perturbation destabilises the loop), random models within the
+    bounds close stable loops, and no residual pole's decay bound reaches the axis (passivity:
+    at most half the decay rate; without that cap the 66.8 Hz out-of-band pole's 95% interval
+    crossed the axis and every loop's margin was 0.55)."""
+    import control
+
+    exact = _subtest(sd.testbeds.structure("plate").frf(n=N_LINES, noise=0.01, seed=0))
+    _, nm = _identify(exact)
+    um = sd.uncertain_from_data(nm, 0.95)
+    lam = nm.residual.poles
+    assert np.all(um.dpoles.real <= 0.5 * np.abs(lam.real) * (1 + 1e-12))
+    capped = np.isclose(um.dpoles.real, 0.5 * np.abs(lam.real), rtol=1e-12)
+    assert capped[np.argmax(nm.residual.frequency)]                # the 66.8 Hz pole
+    wc = 2 * np.pi * 500
+    K = control.ss(control.tf([wc, 0.0], [1.0, wc])) * control.ss([], [], [], [[1.0, 0, 0]])
+    r = sd.robust_stability(um, K)
+    assert 1.0 <= r.margin <= r.margin_lower                       # measured 1.91 / 2.01
+    cl = control.feedback(um.perturbed(r.worst_delta * 1.001), K, sign=-1)
+    assert np.linalg.eigvals(cl.A).real.max() >= -1e-6
+    for d in um.sample_deltas(20, seed=3):
+        cl = control.feedback(um.perturbed(d), K, sign=-1)
+        assert np.linalg.eigvals(cl.A).real.max() < 0

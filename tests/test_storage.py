@@ -87,8 +87,8 @@ def test_dense_fe_frf_and_small_models_round_trip(tmp_path):
     round_trip(fe, tmp_path, "fe")
     round_trip(sd.FEModel(np.eye(2), np.eye(2)), tmp_path, "bare")      # no C, nodes, elements
     frf = sd.FRF([1.0], [[[1 + 2j]]], quantity="velocity", sensors=["s|1\n"],
-                 actuators=[" a\u00e9 "], collocated=[(0, 0)], units="m/s/N")
-    round_trip(frf, tmp_path, "frf")
+                 actuators=[" a\u00e9 "], collocated=[(0, 0)], units="m/s/N", averages=4)
+    assert round_trip(frf, tmp_path, "frf").averages == 4
     nm = sd.NormalModeModel(np.diag([4.0, 9.0]), np.diag([0.04, 0.06]), np.eye(2),
                             [[1.0], [0.5]], E=[[1e-3], [0.0]], F=[[0.0], [-1e-300]],
                             omega_c=123.0, sensors=["x", "y"], actuators=["u"],

@@ -66,6 +66,12 @@ class FRF(FrozenState):
         response records (impact tests, :func:`~sdctrl.impact_frf`); None without one.
         The window adds ``1/tau`` (rad/s) to the decay rate of every pole, which
         :func:`~sdctrl.identify` removes.
+    averages : int, optional
+        Number ``n_d`` of independent records averaged in the estimate (hammer hits,
+        :func:`~sdctrl.impact_frf`), when known.  A coherence estimated from the same ``n_d``
+        records makes the point variance (3.59) ``n_d - 1`` times too large (exact for two);
+        :func:`~sdctrl.identify`'s statistics divide it by ``n_d - 1``.  None: not known
+        (the statistics stay conservative).
 
     Examples
     --------
@@ -79,6 +85,7 @@ class FRF(FrozenState):
     __slots__ = (
         "H",
         "actuators",
+        "averages",
         "coherence",
         "collocated",
         "exponential_tau",
@@ -91,7 +98,7 @@ class FRF(FrozenState):
     def __init__(self, freq, H, quantity: str = "displacement",
                  sensors: Sequence[str] | None = None, actuators: Sequence[str] | None = None,
                  collocated=None, coherence=None, units: str | None = None,
-                 exponential_tau: float | None = None):
+                 exponential_tau: float | None = None, averages: int | None = None):
         f = check_freq(freq, "freq")
         h = as_array(H, "H", ndim=(1, 2, 3), dtype=complex)
         if h.ndim == 1:
@@ -127,6 +134,8 @@ class FRF(FrozenState):
             raise TypeError(f"units must be a string or None, got {type(units).__name__}")
         if exponential_tau is not None:
             exponential_tau = check_scalar(exponential_tau, "exponential_tau", positive=True)
+        if averages is not None:
+            averages = check_int(averages, "averages", minimum=1)
         object.__setattr__(self, "freq", readonly(f))
         object.__setattr__(self, "H", readonly(h))
         object.__setattr__(self, "quantity", q)
@@ -136,6 +145,7 @@ class FRF(FrozenState):
         object.__setattr__(self, "coherence", readonly(coh))
         object.__setattr__(self, "units", units)
         object.__setattr__(self, "exponential_tau", exponential_tau)
+        object.__setattr__(self, "averages", averages)
 
     def __setattr__(self, name, value):
         raise AttributeError("FRF is immutable; build a new one instead")
@@ -160,7 +170,7 @@ class FRF(FrozenState):
         kw = {"freq": self.freq, "H": self.H, "quantity": self.quantity, "sensors": self.sensors,
               "actuators": self.actuators, "collocated": self.collocated,
               "coherence": self.coherence, "units": self.units,
-              "exponential_tau": self.exponential_tau}
+              "exponential_tau": self.exponential_tau, "averages": self.averages}
         kw.update(changes)
         return FRF(**kw)
 
@@ -244,8 +254,8 @@ class FRF(FrozenState):
         -------
         FRF
             ``H`` of shape ``(nf, na, ns)``, sensors and actuators swapped, collocated pairs
-            kept (each ``(s, a)`` becomes ``(a, s)``), coherence transposed; quantity, units
-            and ``exponential_tau`` unchanged.  ``frf.transpose().transpose()`` equals ``frf``.
+            kept (each ``(s, a)`` becomes ``(a, s)``), coherence transposed; quantity, units,
+            ``exponential_tau`` and ``averages`` unchanged.  ``frf.transpose().transpose()`` equals ``frf``.
         """
         coh = None if self.coherence is None else np.swapaxes(self.coherence, 1, 2)
         return self._replace(H=np.swapaxes(self.H, 1, 2), sensors=self.actuators,

@@ -81,7 +81,8 @@ def impact_frf(hits, fs: float, *, force_window: float | None = None,
         Lines ``k fs / n`` for ``k = 1 .. n // 2`` (Hz), one actuator (the force's offset, the
         median of its record, removed; the responses as recorded), ``coherence`` the
         ordinary coherence of each sensor over the hits (identically 1 for a single hit),
-        ``exponential_tau`` the window's ``tau`` in s (None without it).
+        ``exponential_tau`` the window's ``tau`` in s (None without it), ``averages`` the
+        number of hits (the statistics of :func:`~sdctrl.identify` use it, 3.59).
 
     Raises
     ------
@@ -142,7 +143,7 @@ def impact_frf(hits, fs: float, *, force_window: float | None = None,
     if nh > 1:                                           # one hit: coherence says nothing
         _check_coherence(freq, H, coh, Gff > 1e-2 * Gff.max(), sensors)
     return FRF(freq, H[:, :, None], quantity=q, sensors=sensors,
-               actuators=[actuator or "a0"], coherence=coh, exponential_tau=tau)
+               actuators=[actuator or "a0"], coherence=coh, exponential_tau=tau, averages=nh)
 
 
 def _hit_records(hits) -> tuple[np.ndarray, np.ndarray]:

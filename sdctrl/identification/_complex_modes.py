@@ -333,7 +333,7 @@ class ComplexModeModel(FrozenState):
             return cpsi, psib, {"spread": spread, "alpha2": single, "pairs": pairs}
         return cpsi, psib
 
-    def residue_std(self, frf=None, n_averages: int = 1, direct_only: bool = False):
+    def residue_std(self, frf=None, n_averages: int | None = None, direct_only: bool = False):
         """Standard deviation of the residues, both parts of (3.58) (direct and through the
         poles), from the coherence (3.59) or the fit residual.
 
@@ -342,8 +342,8 @@ class ComplexModeModel(FrozenState):
         frf : FRF, optional
             The measured FRF the model was fitted to; default the statistics stored by
             :func:`~sdctrl.identify`.
-        n_averages : int
-            Number of averages behind the coherence estimate (divides the variance).
+        n_averages : int, optional
+            Divisor of the point variance (3.59); default ``frf.averages - 1`` (else 1).
         direct_only : bool
             Only the direct part of (3.58) (poles held fixed).
 

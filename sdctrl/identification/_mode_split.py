@@ -8,7 +8,8 @@ residual), keeps at most ``ns`` of them (the reduced coordinates 3.46-3.47 hold 
 modes), then the whole set; when the set fails it leaves out the one pole whose removal
 makes it succeed (worst single-mode properness first), and as a last resort adds the poles
 one at a time, best first.  The poles left over are kept as complex-mode residual dynamics
-(:class:`~sdctrl.modal.ResidualDynamics`) with the reason of each.
+(:class:`~sdctrl.modal.ResidualDynamics`) with the reason of each and, when the model
+carries statistics, the standard deviations of their poles and residues (3.56), (3.58).
 
 Internal module: the functions trust their inputs.
 """
@@ -19,6 +20,7 @@ import warnings
 
 import numpy as np
 
+from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
 __all__ = ["OUT_OF_BAND", "residual_block", "split_modes"]
@@ -107,6 +109,10 @@ def residual_block(cm, reasons: dict) -> ResidualDynamics | None:
     idx = np.array(sorted(reasons), int)
     if idx.size == 0:
         return None
+    kw = {}
+    if cm.statistics is not None:                  # the uncertainty the test leaves (3.58)
+        pole, res = part_std(cm.statistics, np.shape(cm.residues))
+        kw = {"pole_std": pole[idx], "residue_std": res[idx]}
     return ResidualDynamics(np.asarray(cm.poles)[idx], np.asarray(cm.residues)[idx],
                             sensors=cm.sensors, actuators=cm.actuators,
-                            reasons=tuple(reasons[int(j)] for j in idx), source=idx)
+                            reasons=tuple(reasons[int(j)] for j in idx), source=idx, **kw)

@@ -39,11 +39,12 @@ The point variance ``|H|^2 (1 - coherence)`` (3.59) is that of an FRF whose cohe
 point's own signal-to-noise ratio.  For an H1 estimate from ``n_d`` averages with its
 ordinary coherence ``g`` estimated from the same averages, ``E[1 - g] = (1 - g_true)
 (n_d - 1) / n_d`` and the estimate's variance is ``|H|^2 E[1 - g] / (n_d - 1)``: (3.59)
-overstates it ``n_d - 1`` times (conservative; exact for two averages).  The FRF does not
-record ``n_d``, and neither the coherence's scatter over the lines nor the fit residual
-(dominated by the model's own error on real tests) tells it reliably: callers who know it
-divide (3.59) by ``n_averages = n_d - 1``
-(:func:`~sdctrl.identification._variance.residue_std`).  A coherence identically 1 (one
+overstates it ``n_d - 1`` times (conservative; exact for two averages).  Neither the
+coherence's scatter over the lines nor the fit residual (dominated by the model's own error
+on real tests) tells ``n_d`` reliably: the FRF records it (``FRF.averages``, set by
+:func:`~sdctrl.impact_frf` to the number of hits) and the statistics divide (3.59) by
+``n_d - 1`` (:func:`~sdctrl.identification._variance.recorded_divisor`); an FRF that does
+not record it keeps the conservative variance.  A coherence identically 1 (one
 record: no information on the noise) falls back to the residual.
 
 Without a coherence, the residual's second differences over correlated lines keep only
@@ -434,3 +435,43 @@ def coefficient_variance(stats: FitStatistics, direct_only: bool = False) -> np.
         rows = (np.flatnonzero(bad)[:, None] * npp + np.arange(npp)).ravel()
         var[rows] = np.nan
     return var
+
+
+def part_std(stats: FitStatistics | None, shape: tuple) -> tuple:
+    """Standard deviations of the real and imaginary parts of the poles and residues.
+
+    The poles' from the diagonal of ``S`` (3.56); the residues' from both parts of (3.58)
+    (:func:`coefficient_variance`: the complex parametrisation's coefficients are ``Re R``
+    and ``Im R``; the real one's single coefficient gives ``|R|``'s std, shared equally by
+    the two parts).  Used for the uncertainty of residual dynamics (complex modes kept as
+    they are, :class:`~sdctrl.modal.ResidualDynamics`).
+
+    Parameters
+    ----------
+    stats : FitStatistics or None
+        Covariance blocks of the fit.
+    shape : tuple of int
+        ``(n, ns, na)`` of the model's residues.
+
+    Returns
+    -------
+    pole_std : ndarray, shape (n,), complex
+        Std of ``Re l`` in ``.real``, of ``Im l`` in ``.imag`` (rad/s); NaN where undetermined.
+    residue_std : ndarray, shape (n, ns, na), complex
+        Std of ``Re R`` in ``.real``, of ``Im R`` in ``.imag``; NaN where undetermined.
+    """
+    n = shape[0]
+    if stats is None or stats.n != n:
+        return np.full(n, np.nan, complex), np.full(shape, np.nan, complex)
+    d = np.sqrt(np.abs(np.diag(stats.S)))
+    bad = undetermined(stats)
+    pole = np.empty(n, complex)
+    pole.real, pole.imag = np.where(bad, np.nan, d[0::2]), np.where(bad, np.nan, d[1::2])
+    var = coefficient_variance(stats)                                    # (q, m)
+    if stats.model == "complex":
+        re, im = np.sqrt(var[0:2 * n:2]), np.sqrt(var[1:2 * n:2])
+    else:
+        re = im = np.sqrt(var[:n] / 2)
+    res = np.empty(re.shape, complex)
+    res.real, res.imag = re, im                  # NaN kept part by part
+    return pole, res.reshape(shape)

@@ -18,7 +18,14 @@ from sdctrl.identification._pole_statistics import coefficient_variance, fit_sta
 __all__ = ["model_statistics", "residue_std", "statistics_or_none"]
 
 
-def model_statistics(cm, data, n_averages: int = 1):
+def recorded_divisor(data) -> int:
+    """``n_d - 1`` for an FRF that records its ``n_d >= 2`` averages (the coherence from the
+    same records overstates the point variance 3.59 that many times), else 1."""
+    n = getattr(data, "averages", None)
+    return n - 1 if n is not None and n >= 2 else 1
+
+
+def model_statistics(cm, data, n_averages: int | None = None):
     """:class:`FitStatistics` of ``cm`` fitted to ``data`` (the band's lines), with the
     options of its fit (poles held fixed when they were given with ``optimizer="none"``).
 
@@ -28,13 +35,16 @@ def model_statistics(cm, data, n_averages: int = 1):
         Identified model.
     data : FRF
         The lines of its band.
-    n_averages : int
-        Averages behind the coherence.
+    n_averages : int, optional
+        Divisor of the point variance (3.59); default from the averages ``data`` records
+        (:func:`recorded_divisor`).
 
     Returns
     -------
     FitStatistics or None
     """
+    if n_averages is None:
+        n_averages = recorded_divisor(data)
     fit = cm.search                               # how the model was fitted, when known
     model = (None if fit is None else fit.model) or "complex"
     asym = (False, False) if fit is not None and fit.asymptotic is False else (True, True)
@@ -68,7 +78,8 @@ def statistics_or_none(cm, data):
     return stats
 
 
-def residue_std(cm, frf=None, n_averages: int = 1, direct_only: bool = False) -> np.ndarray:
+def residue_std(cm, frf=None, n_averages: int | None = None,
+                direct_only: bool = False) -> np.ndarray:
     """Standard deviation of the residues of ``cm`` (3.58)-(3.60).
 
     Parameters
@@ -78,8 +89,9 @@ def residue_std(cm, frf=None, n_averages: int = 1, direct_only: bool = False) ->
     frf : FRF, optional
         Measured FRF (same sensors and actuators as ``cm``), with or without coherence;
         default the statistics stored on ``cm`` by :func:`~sdctrl.identify`.
-    n_averages : int
-        Number of averages of the FRF estimate; the point variance (3.59) is divided by it.
+    n_averages : int, optional
+        Divisor of the point variance (3.59) of ``frf``; default ``n_d - 1`` when ``frf``
+        records its ``n_d >= 2`` averages (``frf.averages``), else 1.
     direct_only : bool
         Only the direct part of (3.58).
 
@@ -91,8 +103,8 @@ def residue_std(cm, frf=None, n_averages: int = 1, direct_only: bool = False) ->
     """
     from sdctrl.data._frf import FRF
 
-    if isinstance(n_averages, bool) or not isinstance(n_averages, int | np.integer) \
-            or n_averages < 1:
+    if n_averages is not None and (isinstance(n_averages, bool) or
+                                   not isinstance(n_averages, int | np.integer) or n_averages < 1):
         raise ValueError(f"n_averages must be a positive integer, got {n_averages!r}")
     if frf is None:
         stats = cm.statistics

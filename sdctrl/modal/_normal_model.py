@@ -304,7 +304,8 @@ class NormalModeModel(FrozenState):
         return self.replace(Gamma=np.diag(np.diag(self.Gamma)),
                             info={**self.info, "proportional": True})
 
-    def uncertain(self, dGamma=None, dOmega=None, db=None, dc=None):
+    def uncertain(self, dGamma=None, dOmega=None, db=None, dc=None, *, dpoles=None,
+                  dresidues=None):
         """Structured uncertain model (5.5); see :func:`sdctrl.robust._uncertainty.uncertain`.
 
         Parameters
@@ -317,27 +318,34 @@ class NormalModeModel(FrozenState):
             Bound of each entry of ``phib``.
         dc : array_like, shape (ns, n), optional
             Bound of each entry of ``cphi``.
+        dpoles, dresidues : array_like, optional
+            Bounds on the :attr:`residual` dynamics' poles (m,) and residues (m, ns, na),
+            real and imaginary parts in a complex array (see
+            :func:`~sdctrl.robust._uncertainty.uncertain`).
 
         Returns
         -------
         UncertainModel
-            On the normal modes (and ``E``) only.
+            The normal modes (and ``E``) with their bounds; the :attr:`residual` dynamics
+            follow in every realisation, certain unless ``dpoles``/``dresidues`` bound them.
 
         Warns
         -----
         RuntimeWarning
-            The model has :attr:`residual` dynamics: they are not part of the uncertain model.
+            The model has :attr:`residual` dynamics and no bound is given for them.
         """
         from sdctrl.robust._uncertainty import uncertain
 
-        if self.residual is not None:
+        if self.residual is not None and dpoles is None and dresidues is None:
             import warnings
 
             warnings.warn(f"uncertain: the residual dynamics ({self.residual.m} complex "
-                          "pole(s), nm.residual) are not part of the uncertain model, whose "
-                          "nominal and LFT hold the normal modes only", RuntimeWarning,
+                          "pole(s), nm.residual) are certain in the uncertain model; bound "
+                          "them with dpoles=/dresidues=, or from the identification's "
+                          "statistics with sd.uncertain_from_data(nm)", RuntimeWarning,
                           stacklevel=2)
-        return uncertain(self, dGamma=dGamma, dOmega=dOmega, db=db, dc=dc)
+        return uncertain(self, dGamma=dGamma, dOmega=dOmega, db=db, dc=dc, dpoles=dpoles,
+                         dresidues=dresidues)
 
     def frf(self, freq, quantity: str = "displacement"):
         """FRF of the model, eq. (2.15); see :func:`sdctrl.modal._normal_model.frf`.

@@ -42,6 +42,13 @@ class ResidualDynamics(FrozenState):
         Why each pole is not a normal mode (e.g. ``"out of band"``, the Riccati failure).
     source : array_like of int, shape (m,), optional
         Index of each pole in the complex-mode model it came from.
+    pole_std : array_like, shape (m,), complex, optional
+        One standard deviation of each pole's real part (in ``.real``) and imaginary part
+        (in ``.imag``), rad/s, from the identification's statistics (3.56); NaN where the
+        data do not determine it.
+    residue_std : array_like, shape (m, ns, na), complex, optional
+        One standard deviation of the real (``.real``) and imaginary (``.imag``) part of
+        each residue entry, both parts of (3.58); NaN where undetermined.
 
     Attributes
     ----------
@@ -55,6 +62,8 @@ class ResidualDynamics(FrozenState):
     actuators: tuple[str, ...] | None = None
     reasons: tuple[str, ...] = ()
     source: np.ndarray | None = None
+    pole_std: np.ndarray | None = None
+    residue_std: np.ndarray | None = None
 
     def __post_init__(self):
         lam = as_array(self.poles, "poles", ndim=1, dtype=complex)
@@ -78,6 +87,15 @@ class ResidualDynamics(FrozenState):
             if src.shape != (m,) or (m and not np.issubdtype(src.dtype, np.integer)):
                 raise ValueError(f"source must hold one integer index per pole (m={m})")
             sets(self, "source", readonly(src.astype(int)))
+        for name, shape in (("pole_std", (m,)), ("residue_std", R.shape)):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            v = as_array(v, name, dtype=complex, finite=False)
+            if v.shape != shape or np.any(v.real < 0) or np.any(v.imag < 0):
+                raise ValueError(f"{name} must hold non-negative standard deviations (or NaN) "
+                                 f"of shape {shape}, got shape {v.shape}")
+            sets(self, name, readonly(v))
 
     @property
     def m(self) -> int:
@@ -99,15 +117,20 @@ class ResidualDynamics(FrozenState):
         return ResidualDynamics(self.poles.copy(), np.swapaxes(self.residues, 1, 2).copy(),
                                 sensors=self.actuators, actuators=self.sensors,
                                 reasons=self.reasons,
-                                source=None if self.source is None else self.source.copy())
+                                source=None if self.source is None else self.source.copy(),
+                                pole_std=self.pole_std,
+                                residue_std=None if self.residue_std is None
+                                else np.swapaxes(self.residue_std, 1, 2).copy())
 
-    def placed(self, sensors, actuators) -> np.ndarray:
+    def placed(self, sensors, actuators, std: bool = False) -> np.ndarray:
         """Residues placed on a model's I/O by label, shape (m, len(sensors), len(actuators)).
 
         Parameters
         ----------
         sensors, actuators : sequence of str
             The model's labels; entries with no label of the block get zeros.
+        std : bool
+            Place :attr:`residue_std` instead (zeros when the block has none).
 
         Returns
         -------
@@ -118,10 +141,11 @@ class ResidualDynamics(FrozenState):
         out = np.zeros((self.m, len(sensors), len(actuators)), complex)
         si = [(i, rs[s]) for i, s in enumerate(sensors) if s in rs]
         ai = [(i, ra[a]) for i, a in enumerate(actuators) if a in ra]
-        if si and ai:
+        src = self.residue_std if std else self.residues
+        if si and ai and src is not None:
             mi, bi = np.array(si).T
             mj, bj = np.array(ai).T
-            out[:, mi[:, None], mj[None, :]] = self.residues[:, bi[:, None], bj[None, :]]
+            out[:, mi[:, None], mj[None, :]] = src[:, bi[:, None], bj[None, :]]
         return out
 
     def frf_array(self, s, sensors, actuators) -> np.ndarray:

@@ -37,6 +37,15 @@ from sdctrl._lib.validate import (
 )
 from sdctrl._lib.signals import signal_names
 from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
+from sdctrl.robust._physical_bounds import default_bounds, modal_density_bound, psd_gamma_bound
+from sdctrl.robust._residual_uncertainty import (
+    KINDS,
+    residual_channels,
+    residual_matrices,
+    residual_params,
+    residual_perturbed,
+    residual_states,
+)
 from sdctrl.robust._response_bounds import envelope_of_draws
 
 __all__ = [
@@ -121,6 +130,12 @@ class UncertainModel(FrozenState):
     source : str
         Where the bounds come from (e.g. identification statistics, several tests); empty
         when they were given by hand.
+    dpoles : ndarray (m,), complex, optional
+        Bounds on the real (``.real``) and imaginary (``.imag``) parts of the poles of the
+        model's residual dynamics (rad/s); None: the residual dynamics are certain.
+    dresidues : ndarray (m, ns, na), complex, optional
+        Bounds on the real and imaginary parts of their residues at the model's I/O
+        (:mod:`._residual_uncertainty`).
     """
 
     model: object
@@ -130,6 +145,8 @@ class UncertainModel(FrozenState):
     dc: np.ndarray
     params: list = field(default_factory=list)
     source: str = ""
+    dpoles: np.ndarray | None = None
+    dresidues: np.ndarray | None = None
 
     def __repr__(self) -> str:
         kinds = {}
@@ -159,16 +176,27 @@ class UncertainModel(FrozenState):
         """Nominal model as a python-control StateSpace (displacement outputs)."""
         return self.perturbed(np.zeros(len(self.params)))
 
-    def _matrices(self, Omega=None, Gamma=None, phib=None, cphi=None):
-        """Displacement realisation (2.15) of the nominal model, or of perturbed matrices."""
+    def _residual(self):
+        """Nominal ``(poles, residues)`` of uncertain residual dynamics, or None (certain)."""
+        if self.dresidues is None:
+            return None
+        res = self.model.residual
+        return res.poles, res.placed(self.model.sensors, self.model.actuators)
+
+    def _matrices(self, Omega=None, Gamma=None, phib=None, cphi=None, residual=None):
+        """Displacement realisation (2.15) of the nominal model, or of perturbed matrices
+        (``residual``: the residual dynamics' perturbed poles and residues)."""
         m = self.model
         A, B, C, D = second_order(m.Omega if Omega is None else Omega,
                                   m.Gamma if Gamma is None else Gamma,
                                   m.phib if phib is None else phib,
                                   m.cphi if cphi is None else cphi)
         res = getattr(m, "residual", None)
-        if res is not None:                          # certain residual dynamics (3.26)-(3.33)
-            Ar, Br, Cr, _ = res.realisation(m.sensors, m.actuators)
+        if res is not None:
+            if self.dresidues is not None:           # uncertain: complex modal coordinates
+                Ar, Br, Cr = residual_matrices(*(residual or self._residual()))
+            else:                                    # certain: (3.26)-(3.33)
+                Ar, Br, Cr, _ = res.realisation(m.sensors, m.actuators)
             A = np.block([[A, np.zeros((A.shape[0], Ar.shape[1]))],
                           [np.zeros((Ar.shape[0], A.shape[1])), Ar]])
             B, C = np.vstack([B, Br]), np.hstack([C, Cr])
@@ -178,8 +206,11 @@ class UncertainModel(FrozenState):
         """State names: the modal ``p``, ``dp`` then the residual dynamics' ``r``, ``dr``."""
         m = self.model
         res = getattr(m, "residual", None)
-        extra = [] if res is None else res.realisation(m.sensors, m.actuators)[3]
-        return modal_states(m.n) + list(extra)
+        if res is None:
+            return modal_states(m.n)
+        if self.dresidues is not None:
+            return modal_states(m.n) + residual_states(res.m, m.na)
+        return modal_states(m.n) + list(res.realisation(m.sensors, m.actuators)[3])
 
     def compact_lft(self) -> CompactLFT:
         """The Delta channels through the few signals they read and drive (exact, affine).
@@ -208,6 +239,8 @@ class UncertainModel(FrozenState):
                     pairs.append((("f", j), -beta, ("x", off + i)))
             elif kind == "b":
                 pairs = [(("f", i), beta, ("u", j))]
+            elif kind in KINDS:
+                pairs = residual_channels(kind, i, j, beta, 2 * n, m.na)
             else:
                 pairs = [(("y", i), beta, ("x", j))]
             for drv, coef, rd in pairs:
@@ -217,7 +250,10 @@ class UncertainModel(FrozenState):
         nx, N = A.shape[0], len(chans)
         Bv, Dyv = np.zeros((nx, len(drives))), np.zeros((m.ns, len(drives)))
         for (kind, i), c in drives.items():
-            (Bv[n + i] if kind == "f" else Dyv[i])[c] = 1.0
+            if kind == "y":
+                Dyv[i, c] = 1.0
+            else:                                    # a modal force row, or any state's
+                Bv[n + i if kind == "f" else i, c] = 1.0
         Cv, Dvu = np.zeros((len(reads), nx)), np.zeros((len(reads), m.na))
         for (kind, i), r in reads.items():
             (Cv if kind == "x" else Dvu)[r, i] = 1.0
@@ -259,7 +295,8 @@ class UncertainModel(FrozenState):
         return P, self.blocks
 
     def _perturbed_matrices(self, deltas):
-        """Matrices ``(Omega, Gamma, phib, cphi)`` for normalised parameters ``deltas`` (5.5).
+        """``(Omega, Gamma, phib, cphi, residual)`` for normalised parameters ``deltas`` (5.5)
+        (``residual``: perturbed poles and residues of uncertain residual dynamics, or None).
 
         Parameters
         ----------
@@ -281,10 +318,15 @@ class UncertainModel(FrozenState):
         mats = {"Omega": np.array(m.Omega, float), "Gamma": np.array(m.Gamma, float),
                 "b": np.array(m.phib, float), "c": np.array(m.cphi, float)}
         for (name, (kind, i, j), rep, beta), dk in zip(self.params, d):
+            if kind in KINDS:
+                continue
             mats[kind][i, j] += beta * dk
             if rep == 2:
                 mats[kind][j, i] += beta * dk
-        return mats["Omega"], mats["Gamma"], mats["b"], mats["c"]
+        res = self._residual()
+        if res is not None:
+            res = residual_perturbed(*res, self.params, d)
+        return mats["Omega"], mats["Gamma"], mats["b"], mats["c"], res
 
     def perturbed(self, deltas):
         """StateSpace of the model perturbed by normalised ``deltas`` (built directly, not by LFT).
@@ -300,10 +342,10 @@ class UncertainModel(FrozenState):
         """
         import control
 
-        Om, Ga, b, c = self._perturbed_matrices(deltas)
+        mats = self._perturbed_matrices(deltas)
         m = self.model
         inputs, outputs = signal_names(m.sensors, m.actuators)
-        return control.ss(*self._matrices(Om, Ga, b, c), inputs=inputs, outputs=outputs,
+        return control.ss(*self._matrices(*mats), inputs=inputs, outputs=outputs,
                           states=self._states())
 
     def sample_deltas(self, n: int, seed=None) -> np.ndarray:
@@ -382,7 +424,8 @@ class UncertainModel(FrozenState):
         return envelope_of_draws(self, f, ds, executor)
 
 
-def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainModel:
+def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None, *, dpoles=None,
+              dresidues=None) -> UncertainModel:
     """Build the structured uncertain model (5.5) of a normal mode model.
 
     Parameters
@@ -397,6 +440,12 @@ def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainMod
         Bound of each entry of ``phib``.
     dc : array_like (ns, n), optional
         Bound of each entry of ``cphi``.
+    dpoles : array_like (m,), complex, optional
+        Bounds on the real (``.real``) and imaginary (``.imag``) parts of the poles of the
+        model's residual dynamics (``model.residual``, ``m`` poles), rad/s.
+    dresidues : array_like (m, ns, na), complex, optional
+        Bounds on the real and imaginary parts of their residues at the model's I/O.  With
+        either, the residual dynamics are uncertain (:mod:`._residual_uncertainty`).
 
     Returns
     -------
@@ -423,69 +472,27 @@ def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None) -> UncertainMod
         params.append((f"delta_b_{i}_{j}", ("b", int(i), int(j)), 1, float(dB[i, j])))
     for i, j in zip(*np.nonzero(dC)):
         params.append((f"delta_c_{i}_{j}", ("c", int(i), int(j)), 1, float(dC[i, j])))
-    return UncertainModel(model, readonly(dG), readonly(dO), readonly(dB), readonly(dC), params)
+    dP, dR = _residual_bounds(model, dpoles, dresidues)
+    if dR is not None:
+        params += residual_params(dP, dR)
+    return UncertainModel(model, readonly(dG), readonly(dO), readonly(dB), readonly(dC), params,
+                          dpoles=dP, dresidues=dR)
 
 
-def psd_gamma_bound(Gamma, fraction: float = 1.0) -> np.ndarray:
-    """Off-diagonal bounds keeping ``Gamma`` positive semi-definite (section 5.2.2).
-
-    For a 2x2 principal minor, ``Gamma_ij^2 <= Gamma_ii Gamma_jj``.
-
-    Parameters
-    ----------
-    Gamma : array_like (n, n)
-        Modal damping matrix.
-    fraction : float
-        Fraction of the positive definiteness bound to use.
-
-    Returns
-    -------
-    ndarray (n, n)
-        ``fraction * sqrt(g_ii g_jj)`` off the diagonal, 0 on it.
-    """
-    G = np.asarray(Gamma, float)
-    g = np.sqrt(np.clip(np.diag(G), 0, None))
-    out = fraction * np.outer(g, g)
-    np.fill_diagonal(out, 0.0)
-    return out
-
-
-def modal_density_bound(Omega, fraction: float = 1.0) -> np.ndarray:
-    """Modal-density bound ``|Omega_ii - Omega_jj|`` on stiffness couplings (section 5.2.2).
-
-    Parameters
-    ----------
-    Omega : array_like (n, n)
-        Modal stiffness matrix.
-    fraction : float
-        Fraction of the bound to use.
-
-    Returns
-    -------
-    ndarray (n, n)
-    """
-    d = np.diag(np.asarray(Omega, float))
-    out = fraction * np.abs(d[:, None] - d[None, :])
-    np.fill_diagonal(out, 0.0)
-    return out
-
-
-def default_bounds(model, gamma_fraction: float = 0.5, omega_fraction: float = 0.1) -> dict:
-    """Sensible default bounds from the physical constraints of section 5.2.
-
-    Parameters
-    ----------
-    model : NormalModeModel
-        Nominal model.
-    gamma_fraction : float
-        Fraction of the positive definiteness bound on ``Gamma`` couplings.
-    omega_fraction : float
-        Fraction of the modal-density bound on ``Omega`` couplings.
-
-    Returns
-    -------
-    dict
-        ``{"dGamma": ..., "dOmega": ...}`` usable as ``uncertain(model, **bounds)``.
-    """
-    return {"dGamma": psd_gamma_bound(model.Gamma, gamma_fraction),
-            "dOmega": modal_density_bound(model.Omega, omega_fraction)}
+def _residual_bounds(model, dpoles, dresidues):
+    """Checked bounds of the residual dynamics (complex, non-negative parts) or (None, None)."""
+    if dpoles is None and dresidues is None:
+        return None, None
+    res = getattr(model, "residual", None)
+    if res is None:
+        raise ValueError("dpoles/dresidues bound residual dynamics, but the model has none "
+                         "(model.residual is None)")
+    out = []
+    for arg, name, shape in ((dpoles, "dpoles", (res.m,)),
+                             (dresidues, "dresidues", (res.m, model.ns, model.na))):
+        a = np.zeros(shape, complex) if arg is None else as_array(arg, name, dtype=complex)
+        if a.shape != shape or np.any(a.real < 0) or np.any(a.imag < 0):
+            raise ValueError(f"{name} must hold non-negative bounds (real and imaginary parts) "
+                             f"of shape {shape}, got shape {a.shape}")
+        out.append(readonly(a))
+    return tuple(out)

@@ -13,7 +13,8 @@ from sdctrl.storage._values import short
 __all__: list[str] = []
 
 
-def _build_uncertain(model, dGamma, dOmega, db, dc, params=(), source=""):
+def _build_uncertain(model, dGamma, dOmega, db, dc, params=(), source="", dpoles=None,
+                     dresidues=None):
     """UncertainModel from stored fields, checked as :func:`sdctrl.robust._uncertainty.uncertain` builds
     them (the dataclass itself does not validate)."""
     from sdctrl.modal._normal_model import NormalModeModel
@@ -31,18 +32,37 @@ def _build_uncertain(model, dGamma, dOmega, db, dc, params=(), source=""):
     if not isinstance(params, list):
         raise TypeError("params must be a list")
     limits = {"Omega": (n, n), "Gamma": (n, n), "b": (n, na), "c": (ns, n)}
+    reps = dict.fromkeys(limits, (1, 2))
+    if dresidues is not None or dpoles is not None:
+        m = _check_residual_bounds(model, dpoles, dresidues)
+        limits.update({"rsig": (m, 1), "romg": (m, 1), "rre": (m, ns * na), "rim": (m, ns * na)})
+        reps.update({"rsig": (2 * na,), "romg": (2 * na,), "rre": (1,), "rim": (1,)})
     for p in params:
         ok = isinstance(p, tuple) and len(p) == 4 and isinstance(p[0], str) \
             and isinstance(p[1], tuple) and len(p[1]) == 3 and p[1][0] in limits \
-            and p[2] in (1, 2) and not isinstance(p[2], bool) and isinstance(p[3], float) \
-            and math.isfinite(p[3]) and p[3] >= 0
+            and p[2] in reps[p[1][0]] and not isinstance(p[2], bool) \
+            and isinstance(p[3], float) and math.isfinite(p[3]) and p[3] >= 0
         ok = ok and all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < lim
                         for i, lim in zip(p[1][1:], limits[p[1][0]]))
         if not ok:
             raise ValueError(f"malformed uncertain parameter {short(p)}")
     if not isinstance(source, str):
         raise TypeError("source must be a string")
-    return UncertainModel(model, dGamma, dOmega, db, dc, params, source)
+    return UncertainModel(model, dGamma, dOmega, db, dc, params, source, dpoles, dresidues)
+
+
+def _check_residual_bounds(model, dpoles, dresidues) -> int:
+    """Number of residual poles the stored bounds ``dpoles``/``dresidues`` describe."""
+    res = model.residual
+    if res is None:
+        raise ValueError("dpoles/dresidues bound residual dynamics the model does not have")
+    shapes = {"dpoles": (res.m,), "dresidues": (res.m, model.ns, model.na)}
+    for k, a in (("dpoles", dpoles), ("dresidues", dresidues)):
+        if not isinstance(a, np.ndarray) or a.shape != shapes[k] or a.dtype.kind != "c" \
+                or not np.all(np.isfinite(a)) or np.any(a.real < 0) or np.any(a.imag < 0):
+            raise ValueError(f"{k} must be finite non-negative complex bounds of shape "
+                             f"{shapes[k]}")
+    return res.m
 
 
 def _build_fit_stats(S, A_inv, M, K, V, model="complex", asymptotic=(True, True),
@@ -106,7 +126,7 @@ def _build_hybrid(**values):
 
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
-                "units", "exponential_tau"), kinds={"freq": "f", "H": "c", "coherence": "f"})
+                "units", "exponential_tau", "averages"), kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"},
                build=_build_complex)
@@ -115,14 +135,16 @@ register_attrs("FitStatistics", "sdctrl.identification._pole_statistics:FitStati
 register_attrs("NormalModeModel", "sdctrl.modal._normal_model:NormalModeModel", kinds=_MODAL,
                build=_build_normal)
 register_attrs("ResidualDynamics", "sdctrl.modal._residual_dynamics:ResidualDynamics",
-               kinds={"poles": "c", "residues": "c", "source": "i"})
+               kinds={"poles": "c", "residues": "c", "source": "i", "pole_std": "c",
+                      "residue_std": "c"})
 register_attrs("HybridModel", "sdctrl.hybrids._predictions:HybridModel", kinds=_MODAL,
                build=_build_hybrid)
 register_attrs("FEModel", "sdctrl.fe:FEModel",
                ("M", "K", "C", "dofs", "nodes", "elements", "assembly"),
                kinds={"M": "f", "K": "f", "C": "f"})
 register_attrs("UncertainModel", "sdctrl.robust._uncertainty:UncertainModel",
-               kinds={"dGamma": "f", "dOmega": "f", "db": "f", "dc": "f"},
+               kinds={"dGamma": "f", "dOmega": "f", "db": "f", "dc": "f", "dpoles": "c",
+                      "dresidues": "c"},
                build=_build_uncertain, lenient=())
 register_attrs("RobustResult", "sdctrl.robust._stability:RobustResult",
                kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)

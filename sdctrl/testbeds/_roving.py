@@ -288,4 +288,5 @@ def _measure(lam, psi_s, psi_h, plan: _Plan, rng, band, sensors, hits):
         cohs.append(one.coherence.reshape(one.H.shape[:2]))
         tau, freq = one.exponential_tau, one.freq
     return FRF(freq, np.stack(cols, axis=2), quantity="acceleration", sensors=sensors,
-               actuators=hits, coherence=np.stack(cohs, axis=2), exponential_tau=tau)
+               actuators=hits, coherence=np.stack(cohs, axis=2), exponential_tau=tau,
+               averages=plan.averages)
