@@ -40,6 +40,7 @@ import numpy as np
 from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._search import OUT_FACTOR, search_poles
+from sdctrl.identification._zoom import zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
 
@@ -99,6 +100,7 @@ class AutoSelection:
         self.tried = []
         self.best = None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
+        self.zoomed = set()                    # in-band pole sets zoomed into
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -359,17 +361,19 @@ class AutoSelection:
                          "out-of-band mode " + ("below" if sd < 0 else "above")))
         return w2, z2, sn, ev2, info2
 
-    def _add_missed(self, state, cand, reason="residual peak"):
+    def _add_missed(self, state, cand, reason="residual peak", free=()):
         """Fit the candidates of the residual scan (or pending initial candidates); the
         new state, or None when none of them is kept (the rejected ones are in
-        ``self.tried``)."""
+        ``self.tried``).  ``free``: indices of fitted poles searched with the new ones
+        in the first probe (the poles among which close modes were found)."""
         w, z, side = state[:3]
         n0 = w.size
         wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
         zn = np.concatenate([z, [c[1] for c in cand]])
         sn = np.concatenate([side, np.zeros(len(cand), int)])
         # first the new poles alone (the others fixed), then all of them
-        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
+        only = np.concatenate([np.asarray(free, int), np.arange(n0, wn.size)])
+        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=only)
         ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
         rejected = [float(c[0]) for j, c in enumerate(cand) if n0 + j not in set(ok)]
         if self.windowed:                     # every candidate tried once, never again
@@ -387,6 +391,24 @@ class AutoSelection:
         for j in range(n0, keep.size):
             self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]), reason))
         return w2, z2, sn[keep], ev2, info2
+
+    def _close_modes(self, state):
+        """Close modes a fitted pole hides (:mod:`~sdctrl.identification._zoom`: the
+        local rank of the data (3.20)-(3.22) above the poles fitted there, then a zoomed
+        LSCF) around the in-band poles and the frequencies rejected before, fitted and
+        judged like residual peaks; None when there are none (or the data are windowed:
+        their line-correlated noise raises the local rank)."""
+        w, z, side, ev = state[:4]
+        ib = side == 0
+        key = tuple(np.round(np.sort(w[ib]) / (2 * np.pi) / self.df, 1))
+        if self.windowed or key in self.zoomed:
+            return None                       # once per set of in-band poles
+        self.zoomed.add(key)
+        cand, spans = zoom_candidates(self.freq, self.prob.Y, self.noise.field(ev),
+                                      w[ib] / (2 * np.pi), z[ib], self.zeta_max, self.tried)
+        f = w / (2 * np.pi)
+        free = [j for j in np.flatnonzero(ib) if any(lo <= f[j] <= hi for lo, hi in spans)]
+        return self._add_missed(state, cand, "close mode (local rank)", free) if cand else None
 
     def run(self, w, z, side, bar=None, rounds=20, pending=None):
         """The add/remove loop from initial poles ``(w rad/s, z, side)``.
@@ -445,9 +467,9 @@ class AutoSelection:
             # missed in-band modes: add at residual peaks, keep the significant ones;
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
-            if not cand:
-                break
-            new = self._add_missed(state, cand)
+            new = self._add_missed(state, cand) if cand else None
+            if new is None:
+                new = self._close_modes(state)
             if new is None:
                 break
             state = self.best = new
