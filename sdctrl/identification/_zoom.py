@@ -130,8 +130,9 @@ def local_rank(Y, sig2, lines, margin: float = 2.0) -> int:
     """Number of singular values of the complex data block over ``lines`` above the
     Marchenko-Pastur edge of its noise (module notes).
 
-    The columns are scaled by the noise field's level over the window (a diagonal scaling:
-    the rank is unchanged, the noise of unequal channels made alike); the noise scale is
+    The lines and the columns are scaled by a separable fit of the noise field over the
+    window (diagonal scalings on both sides: the rank is unchanged, the noise of unequal
+    lines and channels made alike); the noise scale is
     then the median eigenvalue over its Marchenko-Pastur median (the median is the
     noise's as long as the modes are fewer than half the lines), so the count does not
     depend on the residual of the current fit, which holds the missed modes themselves.
@@ -152,7 +153,10 @@ def local_rank(Y, sig2, lines, margin: float = 2.0) -> int:
     int
     """
     nf = Y.shape[0] // 2
-    Hw = (Y[lines] + 1j * Y[nf + lines]) / np.sqrt(np.mean(sig2[lines], axis=0) + 1e-300)
+    s2w = sig2[lines] + 1e-300
+    rows = np.mean(s2w, axis=1) / np.mean(s2w)                # separable noise level
+    cols = np.mean(s2w / rows[:, None], axis=0)
+    Hw = (Y[lines] + 1j * Y[nf + lines]) / np.sqrt(rows[:, None] * cols[None, :])
     m, n = sorted(Hw.shape)
     s2 = np.linalg.svd(Hw, compute_uv=False) ** 2
     sigma2 = float(np.median(s2)) / (n * mp_median(m / n))
