@@ -9,19 +9,28 @@ number of modes near a frequency is the rank of the multi-channel FRF over the l
 there, ``[H(w_k)]`` stacked (lines x channels, 3.21-3.22 applied to the data rather than
 to one residue).  Over a window of lines around each in-band pole:
 
-* the complex data block ``H_W`` (``L`` lines x ``k`` compressed channels) has singular
-  values ``s_i``; noise of variance ``sigma^2`` per entry (the noise field of the current
-  fit, averaged over the window) gives at most ``sigma^2 (sqrt(L) + sqrt(k))^2``
-  (Marchenko-Pastur edge), each mode at least one value above it, and the smooth
-  contribution of the modes outside the window one more; so the data show
-  ``rank - 1`` modes there.  Only when that exceeds the poles fitted in the window is the
-  window zoomed into (no threshold depends on the structure: a scale-free count);
+* the complex data block ``H_W`` (``L`` lines x ``k`` compressed channels), its lines and
+  channels scaled by a separable fit of the current fit's noise field (diagonal scalings:
+  the rank is unchanged), has squared singular values ``s_i^2``; the noise scale is their
+  median over the Marchenko-Pastur median (the median is the noise's while the modes are
+  fewer than half the lines, whatever the residual of the current fit, which holds the
+  missed modes themselves), and each mode gives at least one value above twice the
+  Marchenko-Pastur edge ``sigma^2 (sqrt(L) + sqrt(k))^2``, the smooth contribution of the
+  modes outside the window one more; so the data show ``rank - 1`` modes there.  Only
+  when that exceeds the poles fitted in the window is the window zoomed into (a
+  scale-free count: no threshold depends on the structure).  Windows are centred on the
+  in-band poles and on the frequencies rejected before (a pole standing for several close
+  modes may have been removed as not significant, the residual of the others taken for
+  noise), ``max(20 lines, 5 zeta f)`` on each side;
 * the zoom: an LSCF estimator (:mod:`~sdctrl.identification._lscf`) on the window's lines
   alone (its arc mapped on the window, so close modes are far apart on it), orders up to
-  ``2 rank + 4``, poles stable over three orders; those no fitted pole explains (farther
-  than half a line and a third of the half-power bandwidth) are candidates.
+  ``2 rank + 4``, poles stable over three orders; those no fitted pole explains are
+  candidates (each fitted pole explains the nearest zoomed one within half a line or a
+  third of its half-power bandwidth, one only: a pole standing for two modes explains
+  one of them).
 
-The candidates are then fitted and judged like any other by the significance test of
+The candidates are then fitted, the fitted poles of their window searched with them, and
+judged like any other by the significance test of
 :class:`~sdctrl.identification._selection.AutoSelection` after their fit (whose noise no
 longer holds their own residual).
 
