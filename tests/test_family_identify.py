@@ -3,7 +3,7 @@ level so that no change trades one structure for another: the number of in-band 
 against the true structure's, and the mean logLS of the identified model against the exact
 (noise-free) response.  The issue's targets (within 2x the noise floor; noise-free <= 0.01)
 are asserted where met; the gap is the open identification part of issue 22 (the cluster's
-close blade modes).
+weakest blade mode at 1% noise).
 """
 
 import warnings
@@ -17,16 +17,18 @@ from sdctrl.updating import logls
 #: (in-band modes found, logLS vs the exact data) measured (seed 1, 400 lines): out-of-band
 #: poles are added while significant against the noise of the data (second differences,
 #: corrected for the lines' correlation when the FRF was windowed).  Before that change:
-#: truss_high 0.2422 / 0.2392, ladder 0.0371 / 0.0371, plate at 1% 0.1015 (one pole per side)
+#: truss_high 0.2422 / 0.2392, ladder 0.0371 / 0.0371, plate at 1% 0.1015 (one pole per side).
+#: The cluster's close modes are found by the local rank of the data and a zoomed LSCF
+#: (identification/_zoom.py); before: 3 modes / 1.2651 noise-free, 1 / 1.6672 at 1%
 MEASURED = {
     ("truss", 0.0): (12, 0.0043), ("truss", 0.01): (12, 0.0056),
     ("truss_high", 0.0): (6, 2e-5), ("truss_high", 0.01): (6, 0.0009),
     ("ladder", 0.0): (12, 2e-5), ("ladder", 0.01): (12, 0.0011),
     ("plate", 0.0): (5, 0.0007), ("plate", 0.01): (5, 0.0008),
-    ("cluster", 0.0): (3, 1.2651), ("cluster", 0.01): (1, 1.6672),
+    ("cluster", 0.0): (5, 0.0001), ("cluster", 0.01): (4, 0.3025),
 }
 #: members meeting the noise-free target (<= 0.01)
-NOISE_FREE_OK = {"truss", "truss_high", "ladder", "plate"}
+NOISE_FREE_OK = {"truss", "truss_high", "ladder", "plate", "cluster"}
 
 
 def _true_in_band(st) -> int:

@@ -46,6 +46,7 @@ from sdctrl.identification._residues import (
     pole_from_params,
 )
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
+from sdctrl.identification._rules import selection_rules
 from sdctrl.identification._selection import AutoSelection
 from sdctrl.identification._quality import fit_quality
 from sdctrl.identification._variance import statistics_or_none
@@ -108,7 +109,12 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         correlation in the test instead merged a blade pair of the cluster's survey and
         missed a mode of real hammer data).  No threshold depends on the structure.
         Close modes (unwindowed data): a frequency rejected by the residual scan is retried
-        once the model has changed.
+        once the model has changed; where the rank of the multi-channel data over the
+        lines around the in-band poles (a mode is a dyad, 3.20-3.22; counted against the
+        Marchenko-Pastur edge of the window's own noise) exceeds the poles fitted there,
+        an LSCF zoomed on those lines proposes the missing ones (modes closer than the
+        line spacing, :mod:`~sdctrl.identification._zoom`).  The rules are chosen once
+        from the data (:func:`~sdctrl.identification._rules.selection_rules`).
         The search stops when the fit is numerically exact, or after a round whose
         residual-peak candidates were all rejected.
     band : (float, float), optional
@@ -237,7 +243,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
                                     _noise_shape(data, Hm, V),
-                                    windowed=data.exponential_tau is not None)
+                                    rules=selection_rules(data))
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
                     raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"

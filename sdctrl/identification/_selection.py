@@ -39,7 +39,9 @@ import numpy as np
 
 from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
+from sdctrl.identification._rules import INDEPENDENT, SelectionRules
 from sdctrl.identification._search import OUT_FACTOR, search_poles
+from sdctrl.identification._zoom import zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
 
@@ -73,32 +75,29 @@ class AutoSelection:
         ``warn(message)`` reports trouble.
     shape : ndarray, shape (nf, k), optional
         Noise shape from the coherence (3.59).
-    windowed : bool
-        The FRF was measured through an exponential window (``frf.exponential_tau``):
-        its noise is correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8
-        between neighbours on a hammer survey), which the second-difference noise level
-        of out-of-band poles would take for signal -- a simulated roving-hammer survey's
-        band then filled with poles (20 for 6).  Such data keep the rules that hold
-        there: one out-of-band pole per side started at the band edge, judged against
-        the direct noise field, rejected candidates not retried.
+    rules : SelectionRules, optional
+        The rules chosen from the data (:func:`~sdctrl.identification._rules.
+        selection_rules`: an FRF measured through an exponential window has noise
+        correlated between lines and keeps the rules that hold there); default: those of
+        noise independent between lines.
     """
 
     def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
-                 significance, warn, shape=None, windowed: bool = False):
+                 significance, warn, shape=None, rules: SelectionRules | None = None):
         self.prob, self.freq, self.fband = prob, freq, fband
         self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
         self.df = float(np.median(np.diff(freq)))
         self.min_bw, self.zeta_max = min_bandwidth, zeta_max
         self.noise = NoiseTest(prob, significance, shape)
-        self.windowed = bool(windowed)
-        if self.windowed:
-            self.noise.floor = 1e-11 * prob.normY2     # the rules of windowed data
+        self.rules = INDEPENDENT if rules is None else rules
+        self.noise.floor = self.rules.floor * prob.normY2
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log = []
         self.warn = warn
         self.tried = []
         self.best = None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
+        self.zoomed = set()                    # in-band pole sets zoomed into
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -148,7 +147,7 @@ class AutoSelection:
         -------
         ndarray
         """
-        return self.noise.significance(w.size, ev, None if self.windowed else side)
+        return self.noise.significance(w.size, ev, side if self.rules.oob_search else None)
 
     def missed(self, w, z, ev, max_add=6):
         """Missed modes (frequency Hz, damping) in the residual, strongest first.
@@ -231,13 +230,13 @@ class AutoSelection:
         edge = (side == 0) & ((f - self.fband[0] < 0.5 * self.df) |
                               (self.fband[1] - f < 0.5 * self.df))
         at_bound = info.get("at_bound", np.zeros(w.size, bool)) & \
-            ((side == 0) | self.windowed)
+            ((side == 0) | (not self.rules.oob_search))
         # out of band: at the edge it stands for an in-band mode, at the far bound (a
         # factor OUT_FACTOR from the edge) for what the asymptotic terms E, F/s^2 carry
         lo, hi = self.fband[0] * (1 - 1e-6), self.fband[1] * (1 + 1e-6)
         at_edge = ((side < 0) & ((f > lo) | (f < lo / OUT_FACTOR * (1 + 2e-6)))) | \
                   ((side > 0) & ((f < hi) | (f > hi * OUT_FACTOR * (1 - 2e-6))))
-        at_edge &= not self.windowed
+        at_edge &= self.rules.oob_search
         for j in np.flatnonzero(at_bound | edge | at_edge):
             reasons[j] = "did not converge (pushed to a bound)"
         for j in self._unresolved(w, z, side, ev, reasons):
@@ -257,13 +256,14 @@ class AutoSelection:
         kept when its damping is significantly above zero, ``std(ln zeta)`` (3.56) below
         :data:`RESOLVED_STD`.  Out of band no line resolves a peak whatever its
         damping: the rule does not apply there (significance alone judges), except for
-        windowed data (``windowed``), where a narrow out-of-band pole is noise fitting.
+        data without the out-of-band search (``rules.oob_search`` False: windowed data),
+        where a narrow out-of-band pole is noise fitting.
         """
         f = w / (2 * np.pi)
         narrow = [j for j in np.flatnonzero(2 * z * f < self.min_bw * self.df)
                   if j not in reasons]
         check = [j for j in narrow if side[j] == 0]
-        out = [j for j in narrow if side[j] != 0 and self.windowed]
+        out = [j for j in narrow if side[j] != 0 and not self.rules.oob_search]
         if not check:
             return out
         std = self.noise.log_damping_std(w, z, ev, check)
@@ -299,7 +299,7 @@ class AutoSelection:
             for sd in (-1, 1):
                 w, z, side = state[:3]
                 key = (int(np.count_nonzero(side == 0)), w.size)
-                if self.windowed:             # retried when the in-band poles changed
+                if not self.rules.oob_search:  # retried when the in-band poles changed
                     key = key[0]
                     if tried_side[sd] == key or np.any(side == sd):
                         continue
@@ -313,7 +313,7 @@ class AutoSelection:
                 state = changed = self.best = new
                 self.out_added[sd] += 1
                 added = True
-            if not added or self.windowed:
+            if not added or not self.rules.oob_search:
                 return changed
 
     def _oob_start(self, state, sd):
@@ -339,10 +339,10 @@ class AutoSelection:
         """One new pole on side ``sd``: probe, then full fit; the new state if it is kept
         (converged away from the band edge and significant), else None."""
         w, z, side = state[:3]
-        if self.windowed:
-            f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
-        else:
+        if self.rules.oob_search:
             f0 = self._oob_start(state, sd)
+        else:
+            f0 = self.fband[0] * 0.97 if sd < 0 else self.fband[1] * 1.03
         wn = np.concatenate([w, [2 * np.pi * f0]])
         zn = np.concatenate([z, [0.01]])
         sn = np.concatenate([side, [sd]])
@@ -353,26 +353,28 @@ class AutoSelection:
         w2, z2, ev2, info2 = self.fit(w2, z2, sn)
         if not self._accept(w2, z2, ev2, info2, new, sn).size:
             return None
-        if not self.windowed:
+        if self.rules.retry_rejected:
             self.tried = []                   # the model changed (see _add_missed)
         self.log.append(("added", float(w2[-1] / (2 * np.pi)), float(z2[-1]),
                          "out-of-band mode " + ("below" if sd < 0 else "above")))
         return w2, z2, sn, ev2, info2
 
-    def _add_missed(self, state, cand, reason="residual peak"):
+    def _add_missed(self, state, cand, reason="residual peak", free=()):
         """Fit the candidates of the residual scan (or pending initial candidates); the
         new state, or None when none of them is kept (the rejected ones are in
-        ``self.tried``)."""
+        ``self.tried``).  ``free``: indices of fitted poles searched with the new ones
+        in the first probe (the poles among which close modes were found)."""
         w, z, side = state[:3]
         n0 = w.size
         wn = np.concatenate([w, [2 * np.pi * c[0] for c in cand]])
         zn = np.concatenate([z, [c[1] for c in cand]])
         sn = np.concatenate([side, np.zeros(len(cand), int)])
         # first the new poles alone (the others fixed), then all of them
-        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=np.arange(n0, wn.size))
+        only = np.concatenate([np.asarray(free, int), np.arange(n0, wn.size)])
+        w2, z2, ev2, info2 = self.fit(wn, zn, sn, only=only)
         ok = self._accept(w2, z2, ev2, info2, np.arange(n0, w2.size), sn)
         rejected = [float(c[0]) for j, c in enumerate(cand) if n0 + j not in set(ok)]
-        if self.windowed:                     # every candidate tried once, never again
+        if not self.rules.retry_rejected:     # every candidate tried once, never again
             self.tried += [float(c[0]) for c in cand]
         elif ok.size:
             # the model changed: what was rejected (or pruned) before is retried, so that a
@@ -387,6 +389,24 @@ class AutoSelection:
         for j in range(n0, keep.size):
             self.log.append(("added", float(w2[j] / (2 * np.pi)), float(z2[j]), reason))
         return w2, z2, sn[keep], ev2, info2
+
+    def _close_modes(self, state):
+        """Close modes a fitted pole hides (:mod:`~sdctrl.identification._zoom`: the
+        local rank of the data (3.20)-(3.22) above the poles fitted there, then a zoomed
+        LSCF) around the in-band poles and the frequencies rejected before, fitted and
+        judged like residual peaks; None when there are none (or the rules exclude it:
+        the line-correlated noise of windowed data raises the local rank)."""
+        w, z, side, ev = state[:4]
+        ib = side == 0
+        key = tuple(np.round(np.sort(w[ib]) / (2 * np.pi) / self.df, 1))
+        if not self.rules.close_modes or key in self.zoomed:
+            return None                       # once per set of in-band poles
+        self.zoomed.add(key)
+        cand, spans = zoom_candidates(self.freq, self.prob.Y, self.noise.field(ev),
+                                      w[ib] / (2 * np.pi), z[ib], self.zeta_max, self.tried)
+        f = w / (2 * np.pi)
+        free = [j for j in np.flatnonzero(ib) if any(lo <= f[j] <= hi for lo, hi in spans)]
+        return self._add_missed(state, cand, "close mode (local rank)", free) if cand else None
 
     def run(self, w, z, side, bar=None, rounds=20, pending=None):
         """The add/remove loop from initial poles ``(w rad/s, z, side)``.
@@ -445,9 +465,9 @@ class AutoSelection:
             # missed in-band modes: add at residual peaks, keep the significant ones;
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
-            if not cand:
-                break
-            new = self._add_missed(state, cand)
+            new = self._add_missed(state, cand) if cand else None
+            if new is None:
+                new = self._close_modes(state)
             if new is None:
                 break
             state = self.best = new
@@ -457,10 +477,10 @@ class AutoSelection:
 
     def _final_prune(self):
         """The best state without poles the last fit pushed to a bound (an out-of-band pole
-        at the band edge would count as an in-band mode), refitted; windowed data keep
-        their rules' state."""
+        at the band edge would count as an in-band mode), refitted, when the rules ask for
+        it (not for windowed data)."""
         w, z, side, ev, info = self.best
-        pr = None if self.windowed else self.prune(w, z, side, ev, info, weak=False)
+        pr = self.prune(w, z, side, ev, info, weak=False) if self.rules.final_prune else None
         if pr is not None and pr[0].size and np.any(pr[2] == 0):
             self.best = self._first_fit(*pr)
         return self.best

@@ -1,0 +1,81 @@
+"""The rules of the automatic pole selection, chosen once from the data (thesis 3.2.1).
+
+Two kinds of FRF call for different rules, and the data say which they are:
+
+* noise independent from line to line (simulated or averaged tests, H1 estimates without
+  an exponential window): out-of-band poles are searched on a grid of starting
+  frequencies, several per side while each is significant against the noise field of
+  second differences (the smooth tails of modes beyond the band are no noise), and kept
+  at a damping bound (they carry a tail no line resolves); a rejected candidate is
+  retried once the model has changed; close modes are looked for by the local rank of
+  the data (3.20)-(3.22, :mod:`~sdctrl.identification._zoom`); poles the last fit pushed
+  to a bound are dropped at the end;
+* an FRF measured through an exponential window (``frf.exponential_tau``) has noise
+  correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8 between neighbours on a
+  hammer survey), which second differences and a local rank take for signal (a simulated
+  roving-hammer survey's band filled with poles, 20 for 6): there one out-of-band pole
+  per side is tried, started at the band edge and judged against the direct noise
+  field, a pole at any bound or narrower than the lines out of band is rejected, every
+  candidate is tried once, and the exact-fit floor is higher (``1e-11``).
+
+:func:`selection_rules` makes the choice from the FRF; the record carries one field per
+rule so that the selection code reads what it applies, not why.
+
+Internal module: the functions trust their inputs (validated by ``identify``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["SelectionRules", "selection_rules"]
+
+
+@dataclass(frozen=True, eq=False)
+class SelectionRules:
+    """Rules of :class:`~sdctrl.identification._selection.AutoSelection` (module notes).
+
+    Parameters
+    ----------
+    floor : float
+        Cost (relative to the data's squared norm) below which a fit is numerically exact.
+    oob_search : bool
+        Out-of-band poles: several per side from a grid of starting frequencies, judged
+        against the second-difference noise field and kept at a damping bound (True); or
+        one per side from the band edge, the direct field, rejected at any bound or when
+        narrower than the lines (False).
+    retry_rejected : bool
+        A rejected candidate frequency is tried again once the model has changed.
+    close_modes : bool
+        Look for close modes by the local rank of the data and a zoomed LSCF.
+    final_prune : bool
+        Drop, after the last fit, poles pushed to a bound.
+    """
+
+    floor: float = 1e-13
+    oob_search: bool = True
+    retry_rejected: bool = True
+    close_modes: bool = True
+    final_prune: bool = True
+
+
+#: rules of data whose noise is independent between lines
+INDEPENDENT = SelectionRules()
+#: rules of data measured through an exponential window (noise correlated between lines)
+WINDOWED = SelectionRules(floor=1e-11, oob_search=False, retry_rejected=False,
+                          close_modes=False, final_prune=False)
+
+
+def selection_rules(frf) -> SelectionRules:
+    """The rules for ``frf`` (module notes), from its record of an exponential window.
+
+    Parameters
+    ----------
+    frf : FRF
+        The data identified (``exponential_tau`` None or the window's time constant, s).
+
+    Returns
+    -------
+    SelectionRules
+    """
+    return INDEPENDENT if frf.exponential_tau is None else WINDOWED
