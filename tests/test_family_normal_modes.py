@@ -28,7 +28,7 @@ MEASURED = {
     ("truss_high", 0.0): 0.00135, ("truss_high", 0.01): 0.00281,
     ("ladder", 0.0): 0.01078, ("ladder", 0.01): 0.01198,
     ("plate", 0.0): 0.00503, ("plate", 0.01): 0.00515,
-    ("cluster", 0.0): 1.01332, ("cluster", 0.01): 1.66780,
+    ("cluster", 0.0): 0.01026, ("cluster", 0.01): 0.84553,
 }
 #: members short of the acceptance bound max(3 x identified, 0.01) (locked instead): the
 #: ladder, 8% and 20% above 0.01 -- its identified model is exact (4e-11), the normal-mode
@@ -41,7 +41,9 @@ MEASURED = {
 #: cphi and phib to the residues given the proper modes (0.0106, truss 0.0072 -> 0.0077),
 #: relative weights in the phib fit (0.018), the paired out-of-band poles (7.97, 10.0,
 #: 98.3 Hz) made modes too (0.0109-0.0113)
-GAP = {("ladder", 0.0), ("ladder", 0.01)}
+#: The cluster (since identification finds its close blade modes: 1.01 / 1.67 before), 3%
+#: above 0.01 noise-free; at 1% its identification misses one blade mode (0.30).
+GAP = {("ladder", 0.0), ("ladder", 0.01), ("cluster", 0.0), ("cluster", 0.01)}
 
 
 @functools.cache
@@ -171,8 +173,9 @@ def test_operations_keep_the_residual_block_at_the_tested_io():
     for m2 in (nm.modified(dOmega=0.01 * nm.Omega), nm.proportional(),
                nm.with_feedback(nm.phib[:, :1], nm.phib[:, :1].T, kv=1.0, modal=True)):
         assert m2.residual is nm.residual and m2.n == n
-    # the uncertain model (5.5) holds the normal modes only, and says so
-    with pytest.warns(RuntimeWarning, match="residual dynamics .* not part of the uncertain"):
+    # the uncertain model (5.5) bounds the normal modes; given no bounds for the residual
+    # dynamics it keeps them certain, and says so
+    with pytest.warns(RuntimeWarning, match="residual dynamics .* certain in the uncertain"):
         um = nm.replace(F=None).uncertain(dOmega=0.01 * np.abs(nm.Omega))
     assert um.model.n == n
     # placed by label: a model on a subset of the sensors gets the residual at those only
