@@ -178,6 +178,17 @@ def _measure(loop, m):
     return rms(m.to_statespace()[loop.out_idx, :], loop.band, loop.psd)
 
 
+def _open_rms(loop) -> np.ndarray:
+    """RMS of the chosen outputs in open loop (as matrices on a plain reduced model)."""
+    if not loop.plain:
+        return _measure(loop, loop.reduced)
+    from sdctrl._lib.statespace import second_order
+
+    m = loop.reduced
+    A, B, C, _ = second_order(m.Omega, m.Gamma, m.phib, m.cphi[loop.out_idx])
+    return _band_rms(loop, A, B, C, None)
+
+
 def _reduced(model):
     """The model's reduced part, without its (N, n) shapes: what a candidate changes."""
     from sdctrl.modal._normal_model import NormalModeModel
@@ -380,7 +391,7 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     plain = model.E is None and model.F is None          # _reduced drops residual
     loop = _Loop(_reduced(model), np.asarray(model.shapes), fe, static, (lo, hi), out_idx,
                  psd, kp, kv, criterion, p_open, plain)
-    loop = replace(loop, rms_open=_measure(loop, loop.reduced))
+    loop = replace(loop, rms_open=_open_rms(loop))
     done = map_chunks(_evaluate, chunked(candidates, CHUNK), loop, executor, progress,
                       "D-strut placement", "chunk")
     results = [c for chunk in done for _, c, _ in chunk if c is not None]
