@@ -32,7 +32,14 @@ sdctrl, after          2.80 s  0.63 s  0.24   numpy peak finders, scipy.special 
 EMA, same run          11.64 s 5.66 s
 sdctrl, issue 27 run    7.31 s  2.37 s  0.69   load 13-15 (2 cores, 4 sessions): the
 EMA, same run          10.65 s 11.21 s        fresh figure is imports under load (warm 0.21)
+sdctrl, perf branch     8.51 s  2.48 s  0.59   load 8.8 -> 12.0 (2 cores, 5 sessions);
+EMA, same run          14.50 s 3.99 s         ``import sdctrl`` 0.00 s (lazy), EMA's 9.1 s
 =====================  ======  ======  =====  =========================================
+
+On the perf branch a fresh ``identify`` imports scipy.linalg, scipy.special (``chdtri``) and
+scipy.optimize (``least_squares``; its package import pulls shgo/linprog, about 1 s) and
+nothing else heavy: no control, matplotlib, cvxpy, scipy.stats/signal, pyuff nor tqdm
+(``tests/test_lazy_imports.py``).  The rest of the fresh figure is the fit itself.
 
 fe case (N = 100,224, 20 modes, 2 runs, load ~9-11): ``FEModel(M, K).modes(20)`` fresh 153 s,
 warm 144 s; plain ``eigsh`` fresh 271 s, warm 180 s: ratios 0.57 (fresh) and 0.80 (warm),

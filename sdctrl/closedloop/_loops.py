@@ -57,12 +57,13 @@ def _on_axis(lam: np.ndarray, big: float):
     return lambda re, im: np.abs(re) <= AXIS_RTOL * np.maximum(np.hypot(re, im), floor)
 
 
-def _check_poles(A: np.ndarray, w1: float, w2: float, what: str = "sys"):
+def _check_poles(A: np.ndarray, w1: float, w2: float, what: str = "sys", lam=None):
     """Refuse poles that make the band RMS infinite or meaningless; returns None, or the
-    predicate ``(re, im) -> bool`` of the undamped poles (imaginary axis) outside the band."""
+    predicate ``(re, im) -> bool`` of the undamped poles (imaginary axis) outside the band.
+    ``lam``: the eigenvalues of ``A`` when the caller has them already."""
     if A.shape[0] == 0:
         return None
-    lam = np.linalg.eigvals(A)
+    lam = np.linalg.eigvals(A) if lam is None else lam
     on_axis = _on_axis(lam, float(np.abs(lam).max()))
     axis = on_axis(lam.real, lam.imag)
     unstable = (lam.real > 0) & ~axis
@@ -146,10 +147,31 @@ def rms(sys, band, psd=1.0) -> np.ndarray:
     """
     G = as_statespace(sys)
     lo, hi = check_band(band, infinite=True)
-    A, B, C, D = _mats(G)
+    return rms_of_matrices(*_mats(G), (lo, hi), psd)
+
+
+def rms_of_matrices(A, B, C, D, band, psd=1.0, lam=None) -> np.ndarray:
+    """:func:`rms` of the system ``(A, B, C, D)`` (the kernel, no conversion).
+
+    Parameters
+    ----------
+    A, B, C, D : ndarray
+        State-space matrices (real).
+    band : (float, float)
+        Checked band (Hz), ``fmax`` may be ``numpy.inf``.
+    psd : float or array_like
+        One-sided input PSD, as for :func:`rms`.
+    lam : ndarray, optional
+        The eigenvalues of ``A`` when the caller has them already.
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        RMS of each output.
+    """
     S = _psd(psd, B.shape[1])
-    w1, w2 = 2 * np.pi * lo, 2 * np.pi * hi
-    axis = _check_poles(A, w1, w2)
+    w1, w2 = 2 * np.pi * band[0], 2 * np.pi * band[1]
+    axis = _check_poles(A, w1, w2, lam=lam)
     try:
         with np.errstate(all="ignore"):
             if axis is None:

@@ -16,6 +16,7 @@ import numpy as np
 from sdctrl._lib.parallel import chunked, map_chunks
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_band, check_executor, check_int, check_scalar
+from sdctrl.closedloop import _strut_chunks as chunks
 
 __all__ = ["Candidate", "PlacementStudy", "placement_study"]
 
@@ -149,14 +150,16 @@ class _Loop:
 
     ``reduced`` is the model without its shapes (the reduced model every candidate changes
     by a low-rank term); ``shapes`` (N, n) are read at a strut's few DOFs only; ``static``
-    holds ``(fe, sensor_c, actuator_b)`` of a hybrid model whose struts get their own static
-    correction mode (:meth:`HybridModel.with_feedback`), else None.
+    holds the :class:`~sdctrl.closedloop._strut_chunks.Statics` of a hybrid model whose struts get their own static
+    correction mode (:meth:`HybridModel.with_feedback`), else None; ``plain`` says the
+    reduced model is its second-order part only (2.15: no ``E`` nor ``F``), whose closed
+    loops are then formed as matrices directly.
     """
 
     reduced: object
     shapes: np.ndarray
     fe: object
-    static: tuple | None
+    static: chunks.Statics | None
     band: tuple
     out_idx: list
     psd: object
@@ -164,6 +167,7 @@ class _Loop:
     kv: float
     criterion: str
     p_open: np.ndarray
+    plain: bool = False
     rms_open: np.ndarray | None = None
 
 
@@ -172,6 +176,17 @@ def _measure(loop, m):
     from sdctrl.closedloop._loops import rms
 
     return rms(m.to_statespace()[loop.out_idx, :], loop.band, loop.psd)
+
+
+def _open_rms(loop) -> np.ndarray:
+    """RMS of the chosen outputs in open loop (as matrices on a plain reduced model)."""
+    if not loop.plain:
+        return _measure(loop, loop.reduced)
+    from sdctrl._lib.statespace import second_order
+
+    m = loop.reduced
+    A, B, C, _ = second_order(m.Omega, m.Gamma, m.phib, m.cphi[loop.out_idx])
+    return _band_rms(loop, A, B, C, None)
 
 
 def _reduced(model):
@@ -188,26 +203,26 @@ def _with_strut_static(loop, s, rows):
 
     The mode is :func:`~sdctrl.fe._static.consistent_static_modes` of ``s`` against the
     shapes (4.23)-(4.24), appended with its stiffness and critical damping (2.20), (2.22), as
-    :func:`sdctrl.hybrids._predictions.with_static` does -- on the reduced matrices only:
-    one sparse solve and O(N n) products, never an (N, n) copy of the shapes.
+    :func:`sdctrl.hybrids._predictions.with_static` does -- on the reduced matrices only.
     """
     from sdctrl.fe._static import consistent_static_modes, with_static_blocks
 
     m = loop.reduced
     pb = loop.shapes[rows].T @ s[rows]
-    fe, sensor_c, actuator_b = loop.static
-    V, wc2 = consistent_static_modes(fe, s, loop.shapes)
+    st = loop.static
+    V, wc2 = consistent_static_modes(st.fe, s, loop.shapes)
     k = V.shape[1]
     if k == 0:
         return m, pb
     Omega, Gamma = with_static_blocks(m.Omega, m.Gamma, wc2)
-    m = m.replace(Omega=Omega, Gamma=Gamma, cphi=np.hstack([m.cphi, sensor_c @ V]),
-                  phib=np.vstack([m.phib, V.T @ actuator_b]))
+    m = m.replace(Omega=Omega, Gamma=Gamma, cphi=np.hstack([m.cphi, st.sensor_c @ V]),
+                  phib=np.vstack([m.phib, V.T @ st.actuator_b]))
     return m, np.vstack([pb, V.T @ s])
 
 
 def _closed(loop, bar):
-    """Closed loop of the strut on ``bar`` (5.4) as a low-rank change of the reduced model."""
+    """Closed loop of the strut on ``bar`` (5.4) as a low-rank change of the reduced model
+    (the general path: a model with ``E``, ``F`` or residual dynamics)."""
     s = loop.fe.strut(*bar)
     rows = np.flatnonzero(s[:, 0])
     if loop.static is not None:
@@ -221,23 +236,62 @@ def _evaluate(bars, loop) -> list:
     """``(bar, Candidate or None, reason or None)`` of each bar of a chunk (5.4).
 
     Single-threaded BLAS: the reduced matrices are small, and threaded BLAS on them is many
-    times slower on a loaded machine (and oversubscribes an executor's workers).
+    times slower on a loaded machine (and oversubscribes an executor's workers).  On a
+    plain reduced model the chunk is evaluated as arrays: compact struts, the static
+    correction modes of all its struts at once, the closed-loop poles of all candidates in
+    one stacked eigenvalue call, no model or StateSpace per candidate.
     """
     with single_thread():
-        return [_candidate(bar, loop) for bar in bars]
+        if not loop.plain:
+            return [_candidate(bar, loop) for bar in bars]
+        return _evaluate_plain(bars, loop)
+
+
+def _evaluate_plain(bars, loop) -> list:
+    """:func:`_evaluate` on a plain reduced model (see there)."""
+    from sdctrl.fe._static import strut_entries
+
+    struts, out = {}, {}
+    for i, bar in enumerate(bars):
+        try:
+            struts[i] = strut_entries(loop.fe, *bar)
+        except ValueError as exc:
+            out[i] = (tuple(bar), None, str(exc))
+    keys = list(struts)
+    exts = (chunks.static_modes(loop, [struts[i] for i in keys])
+            if loop.static is not None and keys else [None] * len(keys))
+    mats = [chunks.closed_matrices(loop, struts[i], e) for i, e in zip(keys, exts)]
+    lams = chunks.stacked_eigvals([A for A, _, _ in mats])
+    for i, (A, B, C), lam in zip(keys, mats, lams):
+        out[i] = _scored(bars[i], loop, chunks.upper(lam),
+                         lambda A=A, B=B, C=C, lam=lam: _band_rms(loop, A, B, C, lam))
+    return [out[i] for i in range(len(bars))]
+
+
+def _band_rms(loop, A, B, C, lam) -> np.ndarray:
+    """RMS of the chosen outputs of the closed loop ``(A, B, C)`` (eigenvalues ``lam``)."""
+    from sdctrl.closedloop._loops import rms_of_matrices
+
+    return rms_of_matrices(A, B, C, np.zeros((C.shape[0], B.shape[1])), loop.band, loop.psd,
+                           lam=lam)
 
 
 def _candidate(bar, loop) -> tuple:
-    """``(bar, Candidate or None, reason or None)`` of one bar."""
+    """``(bar, Candidate or None, reason or None)`` of one bar (general path)."""
     try:
         cl = _closed(loop, bar)
     except ValueError as exc:
         return tuple(bar), None, str(exc)
-    p = _track(loop.p_open, cl.poles)
+    return _scored(bar, loop, cl.poles, lambda: _measure(loop, cl))
+
+
+def _scored(bar, loop, poles, measure) -> tuple:
+    """``(bar, Candidate or None, reason or None)`` from the closed loop's poles and RMS."""
+    p = _track(loop.p_open, poles)
     freq = np.abs(p) / (2 * np.pi)
     damp = -p.real / np.abs(p)
     try:
-        r = _measure(loop, cl)
+        r = measure()
     except ValueError as exc:
         return (tuple(bar), None,
                 f"closed loop with kv={loop.kv:g}, kp={loop.kp:g}: {exc}")
@@ -333,11 +387,11 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     p_open = p_all[(f_all >= lo) & (f_all <= hi) & (p_all.imag > 0)]
     if p_open.size == 0:
         raise ValueError(f"band: no mode of the model between {lo:g} and {hi:g} Hz")
-    static = ((model.fe, model.sensor_c, model.actuator_b)
-              if getattr(model, "static_ready", False) else None)    # a HybridModel's
+    static = chunks.statics(model) if getattr(model, "static_ready", False) else None  # a hybrid's
+    plain = model.E is None and model.F is None          # _reduced drops residual
     loop = _Loop(_reduced(model), np.asarray(model.shapes), fe, static, (lo, hi), out_idx,
-                 psd, kp, kv, criterion, p_open)
-    loop = replace(loop, rms_open=_measure(loop, loop.reduced))
+                 psd, kp, kv, criterion, p_open, plain)
+    loop = replace(loop, rms_open=_open_rms(loop))
     done = map_chunks(_evaluate, chunked(candidates, CHUNK), loop, executor, progress,
                       "D-strut placement", "chunk")
     results = [c for chunk in done for _, c, _ in chunk if c is not None]

@@ -188,7 +188,7 @@ def _story(out, noise, seed, quiet, progress) -> int:
                     truth=test and test.poles, progress=progress, needs=[test])
     nm = log.run("normal_modes", "normal modes", normal_modes_of, ident, test, needs=[ident])
     upd = log.run("update", "FE model update", update_fe, test, nm, progress=progress,
-                  needs=[test, nm])
+                  ident=ident, needs=[test, nm])
     pending = _start_diagnosis(test, upd)
     hy = log.run("hybrid", "hybrid model", build_hybrid, test, nm, upd, ident, needs=[upd])
     pl = log.run("placement", "D-strut placement", place_strut, test, hy, upd,

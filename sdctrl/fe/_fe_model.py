@@ -220,25 +220,9 @@ class FEModel(ElementGroups):
         ndarray, shape (N, 1)
             ``b``; use ``.T`` for the sensor ``c``.
         """
-        if self.nodes is None:
-            raise ValueError("strut needs node coordinates: build the FEModel with nodes=")
-        for nm, node in (("node_a", node_a), ("node_b", node_b)):
-            if str(node) not in self.nodes:
-                raise ValueError(f"{nm}: unknown node {node!r}")
-        xa = np.asarray(self.nodes[str(node_a)])
-        xb = np.asarray(self.nodes[str(node_b)])
-        L = np.linalg.norm(xb - xa)
-        if L == 0:
-            raise ValueError("node_a and node_b must be at distinct positions")
-        e = (xb - xa) / L
+        rows, values = statics.strut_entries(self, node_a, node_b)
         B = np.zeros((self.N, 1))
-        for sign, node in ((-1.0, node_a), (1.0, node_b)):
-            for comp, ax in zip(e, "xyz"):
-                i = self._index.get(f"{node}.{ax}")
-                if i is not None:
-                    B[i, 0] += sign * comp
-        if not np.any(B):
-            raise ValueError("strut: neither node has a free translation DOF")
+        B[rows, 0] = values
         return B
 
     def _input(self, b, name: str = "b"):

@@ -22,7 +22,7 @@ from sdctrl._lib.validate import as_array
 from sdctrl.fe._eigen import RIGID_RTOL, diagonal_scale
 
 __all__ = ["consistent_static_modes", "principal_static_basis", "principal_static_modes",
-           "static_correction", "static_solver", "with_static_blocks"]
+           "static_correction", "static_solver", "strut_entries", "with_static_blocks"]
 
 
 def static_solver(K, M, R):
@@ -242,3 +242,53 @@ def with_static_blocks(Omega, Gamma, wc2):
     Om[n:, n:] = np.diag(wc2)
     Ga[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                             # critical (2.20)
     return Om, Ga
+
+
+def strut_entries(fe, node_a: str, node_b: str):
+    """Nonzero entries of the strut shape :meth:`FEModel.strut` (D-strut, 5.4), compact.
+
+    ``b = c^T`` has ``-e`` on ``node_a``'s translations and ``+e`` on ``node_b``'s, ``e``
+    the unit vector from ``node_a`` to ``node_b``: at most six entries, whatever the size
+    of the model (a placement study reads the shapes there only).
+
+    Parameters
+    ----------
+    fe : FEModel
+        The model (its ``nodes`` and DOF labels).
+    node_a, node_b : str
+        Node names; both need coordinates in ``fe.nodes``.
+
+    Returns
+    -------
+    rows : ndarray of int
+        DOF indices (those of the two nodes' free translations).
+    values : ndarray
+        ``b`` at these DOFs.
+
+    Raises
+    ------
+    ValueError
+        No node coordinates, an unknown node, coincident nodes, or no free translation DOF.
+    """
+    if fe.nodes is None:
+        raise ValueError("strut needs node coordinates: build the FEModel with nodes=")
+    for nm, node in (("node_a", node_a), ("node_b", node_b)):
+        if str(node) not in fe.nodes:
+            raise ValueError(f"{nm}: unknown node {node!r}")
+    xa = np.asarray(fe.nodes[str(node_a)])
+    xb = np.asarray(fe.nodes[str(node_b)])
+    L = np.linalg.norm(xb - xa)
+    if L == 0:
+        raise ValueError("node_a and node_b must be at distinct positions")
+    e = (xb - xa) / L
+    rows, values = [], []
+    for sign, node in ((-1.0, node_a), (1.0, node_b)):
+        for comp, ax in zip(e, "xyz"):
+            i = fe._index.get(f"{node}.{ax}")
+            if i is not None:
+                rows.append(i)
+                values.append(sign * comp)
+    values = np.asarray(values, float)
+    if not np.any(values):
+        raise ValueError("strut: neither node has a free translation DOF")
+    return np.asarray(rows, int), values
