@@ -294,6 +294,8 @@ def _rescreen(S, placed, G, grids, best, base) -> set:
         fix[name] = dict(zip(ms.tolist(), delta.astype(np.complex64)))
     done = set()
     for fi, pos in short.items():
+        if not pos.size:
+            continue
         fam = S.families[fi]
         grid, extra, _ = grids[fi]
         m = fam.members[pos]

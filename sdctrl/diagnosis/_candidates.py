@@ -264,11 +264,9 @@ def _beam_members(fe, dof_idx):
     ``dk L L^T`` scales the whole element (axial, bending, torsion: a loss of its modulus or
     section, as :meth:`FEModel.stiffness_parameter` does) and ``dk`` is the change of its
     stiffness along its axis.  Bars need none: their axial strut is the element."""
-    if fe.assembly is None:
+    if fe.assembly is None or not any(g[0][0] == "beam" for g in fe.assembly.groups):
         return dof_idx, None
     beams = fe.members(kind="beam")
-    if not beams:
-        return dof_idx, None
     ax = _axial_stiffness(fe)
     pos = {int(d): i for i, d in enumerate(dof_idx)}
     extra, locs, idx, val = [], [], [], []
