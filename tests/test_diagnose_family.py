@@ -283,6 +283,23 @@ def test_null_case_on_every_member_and_five_seeds():
     assert all(v == [] for v in found.values()), found
 
 
+def test_null_case_with_a_plain_model_on_every_member():
+    """Issue 23: the null case through the other path -- a plain normal-mode model (no
+    shapes), placed on the FE model by diagnose itself -- on every member, five noise seeds
+    other than those above: no effect, the error the noise level."""
+    found = {}
+    for name in sd.testbeds.family():
+        own = nominal(name).frf(member(name)[3], "acceleration")
+        plain = nominal(name).replace(shapes=None, dofs=None)
+        for seed in range(5, 10):
+            d = sd.diagnose(plain, noisy(own, 0.01, seed), member(name)[1], progress=False)
+            assert d.built and d.info["physical"]
+            assert d.error_after == d.error_before == pytest.approx(1e-4, rel=0.05)
+            assert d.steps[0]["candidates"][0]["false_alarm"] > 1e-3
+            found[name, seed] = [(e.kind, e.location) for e in d.effects]
+    assert all(v == [] for v in found.values()), found
+
+
 @pytest.mark.parametrize("name", MEMBERS)
 def test_two_effects_at_once(name):
     """Issue 23: a mass at one node and a dashpot between two others, in one call: both

@@ -7,7 +7,10 @@
    on those static corrections, so that the scan grows with the candidates, not with the
    FE size;
 2. **screen**: every candidate of every family at every size of its grid, by the Woodbury
-   update (rank 1 or 3) on a subset of lines, in single precision, log-magnitude logLS --
+   update (rank 1, 3, or up to 6 for a beam) on a subset of lines, in single precision, log-magnitude logLS:
+   a coarse grid on half those lines for all, the full grid for the best share of each
+   family, and the best of those again with their exact static correction (their own
+   flexibility, one solve each; the screen projects it on the test's static corrections) --
    batched over candidates, in chunks that an executor may run anywhere (the chunks and
    their order do not depend on the executor, so the ranking is identical); what every
    chunk reads (the data's lines) is shared, scattered once on a Dask client;
@@ -44,6 +47,8 @@ CHUNK = 48
 FIN_FAMILY, FIN_OVERALL = 2, 6
 #: the second stage of the screen takes this share of each family (at least FINE_MIN)
 FINE_FRAC, FINE_MIN = 0.12, 8
+#: the first (coarse) stage reads every COARSE_EVERY-th line of the screen's lines
+COARSE_EVERY = 2
 #: resonator tunings tried around the frequency of the extra mode seen in the data
 RES_TUNING = (0.97, 1.0, 1.03)
 #: the best of each family after the screen (this share, at least EXACT_MIN) are screened
@@ -211,9 +216,12 @@ def _grids(S, mode):
 
 
 def _screen(S, placed, H, mode, executor, progress):
-    """Two-stage screen: coarse grid for all, full grid for the best of each family.
+    """Three-stage screen: the coarse grid on every :data:`COARSE_EVERY`-th screen line for
+    all, the full grid for the best of each family, the best of those again with their exact
+    static correction (:func:`_rescreen`).
 
-    Returns ``{family: (best cost (nc,), best column of the full grid (nc,))}``.
+    Returns ``({family: (best cost (nc,), best column of the full grid (nc,))}, grids,
+    {(family, position) screened exactly})``.
     """
     base = _screen_lines(placed, H)
     base.pop("step")
@@ -239,15 +247,14 @@ def _screen(S, placed, H, mode, executor, progress):
                 n2 = min(c.size, max(FINE_MIN, int(np.ceil(FINE_FRAC * c.size))))
                 sel[fi] = (np.sort(np.argsort(c, kind="stable")[:n2]),
                            np.arange(grids[fi][0].shape[1]))
-        tl = _screen_chunks(S, G, grids, sel, scattered)
+        every = COARSE_EVERY if sel is stage1 else 1
+        tl = _screen_chunks(S, G, grids, sel, scattered, every)
         res = map_chunks(_screen_task, [t for *_, t in tl], shared, executor, progress,
                          "screen")
-        for (fi, p, cols, _), sc in zip(tl, res):
+        for (fi, p, cols, _), sc in zip(tl, res):       # stage 2 supersedes stage 1
             j = np.argmin(sc, axis=1)
-            c = sc[np.arange(p.size), j]
-            better = c < best[fi][0][p]
-            best[fi][0][p[better]] = c[better]
-            best[fi][1][p[better]] = cols[j[better]]
+            best[fi][0][p] = sc[np.arange(p.size), j]
+            best[fi][1][p] = cols[j]
     exact = _rescreen(S, placed, G, grids, best, base)
     return best, grids, exact
 
@@ -312,9 +319,10 @@ def _rescreen(S, placed, G, grids, best, base) -> set:
     return done
 
 
-def _screen_chunks(S, G, grids, sel, scattered) -> list:
-    """``(family, positions, grid columns, task)`` of the screen's chunks of ``sel``; a task
-    holds its candidates' transfers, or (``scattered``) their indices in the shared ones."""
+def _screen_chunks(S, G, grids, sel, scattered, every=1) -> list:
+    """``(family, positions, grid columns, task)`` of the screen's chunks of ``sel`` on every
+    ``every``-th line; a task holds its candidates' transfers, or (``scattered``) their
+    indices in the shared ones."""
     out = []
     for fi, (pos, cols) in sel.items():
         fam = S.families[fi]
@@ -324,21 +332,23 @@ def _screen_chunks(S, G, grids, sel, scattered) -> list:
             p = pos[a:a + CHUNK]
             m = fam.members[p]
             ex = None if extra is None else (extra[0][p][:, cols], extra[1][p][:, cols])
-            t = {"kind": fam.kind, "sizes": grid[p][:, cols], "extra": ex}
+            t = {"kind": fam.kind, "sizes": grid[p][:, cols], "extra": ex, "every": every}
             if scattered:
                 t.update(group=fam.group.name, m=m)
             else:
-                t.update(Gyk=Gyk[m], Gkk=Gkk[m], Gku=Gku[m])
+                t.update(Gyk=Gyk[m, ::every], Gkk=Gkk[m, ::every], Gku=Gku[m, ::every])
             out.append((fi, p, cols, t))
     return out
 
 
 def _screen_task(chunk, shared):
     t = {**shared["base"], **chunk}
+    k = t.pop("every")
+    t.update(A=t["A"][::k], iHd=t["iHd"][::k], s=t["s"][::k])
     if "group" in chunk:                     # transfers scattered once (Dask)
         Gyk, Gkk, Gku = shared["G"][t.pop("group")]
         m = t.pop("m")
-        t.update(Gyk=Gyk[m], Gkk=Gkk[m], Gku=Gku[m])
+        t.update(Gyk=Gyk[m, ::k], Gkk=Gkk[m, ::k], Gku=Gku[m, ::k])
     return screen_chunk(t)
 
 
