@@ -293,7 +293,7 @@ def test_null_case_with_a_plain_model_on_every_member():
         plain = nominal(name).replace(shapes=None, dofs=None)
         for seed in range(5, 10):
             d = sd.diagnose(plain, noisy(own, 0.01, seed), member(name)[1], progress=False)
-            assert d.built and d.info["physical"]
+            assert d.built
             assert d.error_after == d.error_before == pytest.approx(1e-4, rel=0.05)
             assert d.steps[0]["candidates"][0]["false_alarm"] > 1e-3
             found[name, seed] = [(e.kind, e.location) for e in d.effects]
