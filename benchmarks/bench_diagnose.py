@@ -152,6 +152,10 @@ def bench_lattice(dofs: int) -> None:
           f"diagnosis over {n_loc} candidate locations {d.info['candidates']}: {cpu:.1f} s "
           f"CPU ({wall:.1f} s wall); planted dk = {dk:.4g} N/m (30% of EA/L) on {bar}, found "
           f"{e and (e.kind, e.location, e.parameters)}")
+    top = d.steps[0]["candidates"][:2] if d.steps else []
+    print("  error after the two best candidates (exact fits): " + "; ".join(
+        f"{c['kind']} at {c['location']}: {c['cost']:.3g}" for c in top)
+        + f" (error before {d.error_before:.3g})")
 
 
 def bench_demo() -> None:

@@ -7,7 +7,10 @@
    on those static corrections, so that the scan grows with the candidates, not with the
    FE size;
 2. **screen**: every candidate of every family at every size of its grid, by the Woodbury
-   update (rank 1 or 3) on a subset of lines, in single precision, log-magnitude logLS --
+   update (rank 1, 3, or up to 6 for a beam) on a subset of lines, in single precision, log-magnitude logLS:
+   a coarse grid on half those lines for all, the full grid for the best share of each
+   family, and the best of those again with their exact static correction (their own
+   flexibility, one solve each; the screen projects it on the test's static corrections) --
    batched over candidates, in chunks that an executor may run anywhere (the chunks and
    their order do not depend on the executor, so the ranking is identical); what every
    chunk reads (the data's lines) is shared, scattered once on a Dask client;
@@ -25,7 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from sdctrl._lib.parallel import dask_client, map_chunks, share
-from sdctrl.diagnosis._candidates import families
+from sdctrl.diagnosis._candidates import Group, families
 from sdctrl.diagnosis._finalist_fit import fit_task
 from sdctrl.diagnosis._global_effects import proposal
 from sdctrl.diagnosis._lowrank import (
@@ -44,8 +47,15 @@ CHUNK = 48
 FIN_FAMILY, FIN_OVERALL = 2, 6
 #: the second stage of the screen takes this share of each family (at least FINE_MIN)
 FINE_FRAC, FINE_MIN = 0.12, 8
+#: the first (coarse) stage reads every COARSE_EVERY-th line of the screen's lines
+COARSE_EVERY = 2
 #: resonator tunings tried around the frequency of the extra mode seen in the data
 RES_TUNING = (0.97, 1.0, 1.03)
+#: the best of each family after the screen (this share, at least EXACT_MIN) are screened
+#: again with their exact static correction before the finalists are chosen
+EXACT_FRAC, EXACT_MIN = 0.02, 16
+#: columns of one batch of exact static corrections (one multi-load solve)
+EXACT_BATCH = 256
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,9 +216,12 @@ def _grids(S, mode):
 
 
 def _screen(S, placed, H, mode, executor, progress):
-    """Two-stage screen: coarse grid for all, full grid for the best of each family.
+    """Three-stage screen: the coarse grid on every :data:`COARSE_EVERY`-th screen line for
+    all, the full grid for the best of each family, the best of those again with their exact
+    static correction (:func:`_rescreen`).
 
-    Returns ``{family: (best cost (nc,), best column of the full grid (nc,))}``.
+    Returns ``({family: (best cost (nc,), best column of the full grid (nc,))}, grids,
+    {(family, position) screened exactly})``.
     """
     base = _screen_lines(placed, H)
     base.pop("step")
@@ -234,21 +247,82 @@ def _screen(S, placed, H, mode, executor, progress):
                 n2 = min(c.size, max(FINE_MIN, int(np.ceil(FINE_FRAC * c.size))))
                 sel[fi] = (np.sort(np.argsort(c, kind="stable")[:n2]),
                            np.arange(grids[fi][0].shape[1]))
-        tl = _screen_chunks(S, G, grids, sel, scattered)
+        every = COARSE_EVERY if sel is stage1 else 1
+        tl = _screen_chunks(S, G, grids, sel, scattered, every)
         res = map_chunks(_screen_task, [t for *_, t in tl], shared, executor, progress,
                          "screen")
-        for (fi, p, cols, _), sc in zip(tl, res):
+        for (fi, p, cols, _), sc in zip(tl, res):       # stage 2 supersedes stage 1
             j = np.argmin(sc, axis=1)
-            c = sc[np.arange(p.size), j]
-            better = c < best[fi][0][p]
-            best[fi][0][p[better]] = c[better]
-            best[fi][1][p[better]] = cols[j[better]]
-    return best, grids
+            best[fi][0][p] = sc[np.arange(p.size), j]
+            best[fi][1][p] = cols[j]
+    exact = _rescreen(S, placed, G, grids, best, base)
+    return best, grids, exact
 
 
-def _screen_chunks(S, G, grids, sel, scattered) -> list:
-    """``(family, positions, grid columns, task)`` of the screen's chunks of ``sel``; a task
-    holds its candidates' transfers, or (``scattered``) their indices in the shared ones."""
+def _own_flexibility(S, group, members) -> np.ndarray:
+    """Exact ``beta^T Psi beta`` (4.23) of candidates ``members`` of ``group`` (nc, k, k):
+    their static corrections in batches of multi-load solves."""
+    k, nd = group.rank, S.dof_idx.size
+    out = np.empty((members.size, k, k))
+    per = max(1, EXACT_BATCH // k)
+    for a in range(0, members.size, per):
+        ms = members[a:a + per]
+        beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)     # (nd, nb, k)
+        b = np.zeros((S.fe.N, ms.size * k))
+        b[S.dof_idx] = beta.reshape(nd, -1)
+        psi = S.static.correction(b)[S.dof_idx].reshape(nd, ms.size, k)
+        F = np.einsum("dcp,dcq->cpq", beta, psi)
+        out[a:a + per] = 0.5 * (F + F.transpose(0, 2, 1))
+    return out
+
+
+def _rescreen(S, placed, G, grids, best, base) -> set:
+    """The best of each family screened again, on the full grid, with their exact static
+    correction in ``G_kk`` instead of its projection on the test's static corrections
+    (:meth:`StaticTerms.projected`): that projection misses most of the local flexibility
+    of a load far from the tested DOFs (a bar of the far layer of a lattice), which
+    biases its cost upwards and could keep the right candidate out of the finalists.
+    Updates ``best`` in place; returns the ``(family, position)`` screened exactly."""
+    short = {}
+    for fi in grids:
+        c = best[fi][0]
+        n3 = min(c.size, max(EXACT_MIN, int(np.ceil(EXACT_FRAC * c.size))))
+        short[fi] = np.sort(np.argsort(c, kind="stable")[:n3])
+    by_group = {}
+    for fi, pos in short.items():
+        by_group.setdefault(S.families[fi].group.name, set()).update(
+            S.families[fi].members[pos].tolist())
+    fix = {}
+    for name, ms in by_group.items():
+        group = next(f.group for f in S.families if f.group.name == name)
+        ms = np.array(sorted(ms), int)
+        sub = Group(name, (), group.idx[ms], group.val[ms])
+        delta = _own_flexibility(S, group, ms) - S.static.projected(sub)
+        fix[name] = dict(zip(ms.tolist(), delta.astype(np.complex64)))
+    done = set()
+    for fi, pos in short.items():
+        if not pos.size:
+            continue
+        fam = S.families[fi]
+        grid, extra, _ = grids[fi]
+        m = fam.members[pos]
+        Gyk, Gkk, Gku = G[fam.group.name]
+        Gkk = Gkk[m] + np.stack([fix[fam.group.name][int(c)] for c in m])[:, None]
+        t = {**base, "kind": fam.kind, "sizes": grid[pos], "Gyk": Gyk[m], "Gkk": Gkk,
+             "Gku": Gku[m], "extra": None if extra is None else (extra[0][pos],
+                                                                 extra[1][pos])}
+        sc = screen_chunk(t)
+        j = np.argmin(sc, axis=1)
+        best[fi][0][pos] = sc[np.arange(pos.size), j]
+        best[fi][1][pos] = j
+        done.update((fi, int(p)) for p in pos)
+    return done
+
+
+def _screen_chunks(S, G, grids, sel, scattered, every=1) -> list:
+    """``(family, positions, grid columns, task)`` of the screen's chunks of ``sel`` on every
+    ``every``-th line; a task holds its candidates' transfers, or (``scattered``) their
+    indices in the shared ones."""
     out = []
     for fi, (pos, cols) in sel.items():
         fam = S.families[fi]
@@ -258,21 +332,23 @@ def _screen_chunks(S, G, grids, sel, scattered) -> list:
             p = pos[a:a + CHUNK]
             m = fam.members[p]
             ex = None if extra is None else (extra[0][p][:, cols], extra[1][p][:, cols])
-            t = {"kind": fam.kind, "sizes": grid[p][:, cols], "extra": ex}
+            t = {"kind": fam.kind, "sizes": grid[p][:, cols], "extra": ex, "every": every}
             if scattered:
                 t.update(group=fam.group.name, m=m)
             else:
-                t.update(Gyk=Gyk[m], Gkk=Gkk[m], Gku=Gku[m])
+                t.update(Gyk=Gyk[m, ::every], Gkk=Gkk[m, ::every], Gku=Gku[m, ::every])
             out.append((fi, p, cols, t))
     return out
 
 
 def _screen_task(chunk, shared):
     t = {**shared["base"], **chunk}
+    k = t.pop("every")
+    t.update(A=t["A"][::k], iHd=t["iHd"][::k], s=t["s"][::k])
     if "group" in chunk:                     # transfers scattered once (Dask)
         Gyk, Gkk, Gku = shared["G"][t.pop("group")]
         m = t.pop("m")
-        t.update(Gyk=Gyk[m], Gkk=Gkk[m], Gku=Gku[m])
+        t.update(Gyk=Gyk[m, ::k], Gkk=Gkk[m, ::k], Gku=Gku[m, ::k])
     return screen_chunk(t)
 
 
@@ -314,8 +390,9 @@ def _finalists(best):
     return sorted(keep)
 
 
-def _describe(S, fam, pos, static, cost_, size, w, z):
-    """Proposal of a fitted physical candidate (with what apply needs)."""
+def _describe(S, fam, pos, static, m, cost_, size, w, z):
+    """Proposal of a fitted physical candidate (with what apply needs); ``m`` the number of
+    hypotheses of its kind (every family of that kind)."""
     g = fam.group
     c = int(fam.members[pos])
     beta, psi, Fb = static
@@ -341,7 +418,7 @@ def _describe(S, fam, pos, static, cost_, size, w, z):
                "static": {"psi": psi[S.rows_fe], "Kpsi": Fb,
                           "cy": st.Fyd @ beta, "bu": beta.T @ st.Fdu}}
     return proposal("missing_mode" if kind == "resonator" else kind, loc, params, cost_, k,
-                    fam.size, "lowrank", payload)
+                    m, "lowrank", payload)
 
 
 def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
@@ -368,7 +445,7 @@ def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
     list of dict
         Proposals of the finalists.
     """
-    best, grids = _screen(S, placed, H, mode, executor, progress)
+    best, grids, exact = _screen(S, placed, H, mode, executor, progress)
     fin = _finalists(best)
     fits, statics = [], []
     base = _screen_lines(placed, H)
@@ -379,7 +456,8 @@ def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
         statics.append(static)
         grid, extra, _ = grids[fi]
         ex = None if extra is None else (extra[0][pos], extra[1][pos])
-        j = _best_size(base, fam.kind, grid[pos], ex, (Gyk, Gkk, Gku))
+        j = (int(best[fi][1][pos]) if (fi, pos) in exact else
+             _best_size(base, fam.kind, grid[pos], ex, (Gyk, Gkk, Gku)))
         t = {"Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
              "kind": fam.kind, "base": float(fam.base[pos]), "bounds": fam.bounds[pos],
              "grid": grid[pos], "best": j}
@@ -388,5 +466,8 @@ def physical_proposals(S, placed, H, mode=None, executor=None, progress=None):
         fits.append(t)
     lines = {"H0": H, "Hd": placed.Hd, "s": placed.s}
     res = map_chunks(_fit_task, fits, lines, executor, progress, "fits")
-    return [_describe(S, S.families[fi], pos, st, *r)
+    m = {}
+    for fam in S.families:
+        m[fam.kind] = m.get(fam.kind, 0) + fam.size
+    return [_describe(S, S.families[fi], pos, st, m[S.families[fi].kind], *r)
             for (fi, pos), st, r in zip(fin, statics, res)]

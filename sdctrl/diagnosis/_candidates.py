@@ -7,7 +7,10 @@
   element's axis);
 - **nodes**: a lumped mass on the three translations, ``mass_change`` (``dM = dm I_3``);
 - **DOFs**: a resonator (mass on a spring along one axis) attached to one translation DOF,
-  the physical form of a ``missing_mode``.
+  the physical form of a ``missing_mode``;
+- **members**: every beam element, its whole stiffness scaled (``dK = (dk / (EA/L)) K_e``: a
+  loss of its modulus or section, bending included), ``stiffness_change`` with ``dk`` its
+  change along the element's axis -- an axial strut alone barely sees a beam in bending.
 
 Each candidate has a reference size from the model's in-band modes (the dashpot that adds 1%
 damping to the most affected mode, the spring or mass that shifts its frequency by 1%), or
@@ -207,9 +210,10 @@ def candidate_groups(fe, reach=None):
     Returns
     -------
     dof_idx : ndarray of int, shape (nd,)
-        Candidate DOFs (node translations).
+        Candidate DOFs (node translations, then the other DOFs of beam elements).
     groups : dict of str to Group
-        ``"pairs"``, ``"nodes"``, ``"dofs"``.
+        ``"pairs"``, ``"nodes"``, ``"dofs"`` and, when ``fe`` has beam elements,
+        ``"members"``.
     n_elements : int
         The first ``n_elements`` pairs are elements.
     """
@@ -240,6 +244,7 @@ def candidate_groups(fe, reach=None):
             nv.append(np.diag([1.0 if j in js else 0.0 for j in range(3)]))
     labels = [f"{node}.{ax}" for (node, ax) in where]
     order = np.array([where[key] for key in where], int)
+    dof_idx, members = _beam_members(fe, dof_idx)
     groups = {
         "pairs": Group("pairs", tuple(pairs), np.array(pi, int).reshape(-1, 6),
                        np.array(pv, float).reshape(-1, 6, 1)),
@@ -248,7 +253,48 @@ def candidate_groups(fe, reach=None):
         "dofs": Group("dofs", tuple(labels), order.reshape(-1, 1),
                       np.ones((order.size, 1, 1))),
     }
+    if members is not None:
+        groups["members"] = members
     return dof_idx, groups, n_el
+
+
+def _beam_members(fe, dof_idx):
+    """``(candidate DOFs, Group or None)``: every beam element as the load ``L`` (its DOFs,
+    rotations appended to the candidate DOFs) with ``L L^T = K_e / (EA/L)``, so that a change
+    ``dk L L^T`` scales the whole element (axial, bending, torsion: a loss of its modulus or
+    section, as :meth:`FEModel.stiffness_parameter` does) and ``dk`` is the change of its
+    stiffness along its axis.  Bars need none: their axial strut is the element."""
+    if fe.assembly is None or not any(g[0][0] == "beam" for g in fe.assembly.groups):
+        return dof_idx, None
+    beams = fe.members(kind="beam")
+    ax = _axial_stiffness(fe)
+    pos = {int(d): i for i, d in enumerate(dof_idx)}
+    extra, locs, idx, val = [], [], [], []
+    for pair in beams:
+        Ke = fe.member_matrices(elements=[pair])[0].tocsr()
+        rows = np.unique(Ke.nonzero()[0])
+        kax = ax.get(frozenset(pair), 0.0)
+        if rows.size == 0 or not kax > 0:
+            continue                                   # clamped at both ends
+        d, U = np.linalg.eigh(Ke[rows][:, rows].toarray())
+        keep = d > 1e-9 * d.max()
+        for r in rows:
+            if int(r) not in pos:
+                pos[int(r)] = len(dof_idx) + len(extra)
+                extra.append(int(r))
+        locs.append(tuple(pair))
+        idx.append([pos[int(r)] for r in rows])
+        val.append(U[:, keep] * np.sqrt(d[keep] / kax))
+    if not locs:
+        return dof_idx, None
+    w = max(len(i) for i in idx)
+    k = max(v.shape[1] for v in val)
+    I = np.zeros((len(locs), w), int)
+    V = np.zeros((len(locs), w, k))
+    for c, (i, v) in enumerate(zip(idx, val)):
+        I[c, :len(i)] = i
+        V[c, :v.shape[0], :v.shape[1]] = v
+    return np.r_[dof_idx, np.asarray(extra, int)], Group("members", tuple(locs), I, V)
 
 
 def _fam(kind, group, keep, grid, base, lo, hi, reference=None):
@@ -323,4 +369,11 @@ def families(fe, groups, n_elements, modal_b, omega, gamma, node_mass):
     m_ref = 1.0 / np.max(r2[keep] * w / (2 * g), axis=1)
     out.append(_fam("resonator", dofs, keep, m_ref[:, None] * RES_GRID, np.zeros(keep.size),
                     1e-5 * m_ref, 1e3 * m_ref))
+    if "members" in groups:         # beams: their whole stiffness scaled, dk along the axis
+        mem = groups["members"]
+        seen = np.sum(modal_b["members"] ** 2, axis=1)                  # (nb, nm)
+        keep = np.flatnonzero(seen.max(axis=1) > 0)
+        kax = np.array([ax[frozenset(mem.locations[i])] for i in keep])
+        out.append(_fam("stiffness_change", mem, keep, kax[:, None] * (RHO_GRID - 1.0), kax,
+                        -0.999 * kax, 20.0 * kax, kax))
     return out

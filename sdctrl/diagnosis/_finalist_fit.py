@@ -92,7 +92,7 @@ def _least_squares(s, A, P, Gkk, x0, lb, ub):
         return np.stack([np.r_[c.real, c.imag] for c in cols], axis=1)
 
     return least_squares(rv, x0, jac=jac, bounds=(lb, ub), x_scale=[1, 0.01, 1],
-                         xtol=1e-10, ftol=1e-12, max_nfev=100)
+                         xtol=1e-8, ftol=1e-9, max_nfev=100)
 
 
 def fit_task(t) -> tuple:

@@ -76,8 +76,19 @@ def complex_residual(H, Hd) -> np.ndarray:
     ndarray, complex
     """
     q = H / Hd
+    out = np.empty(q.shape, complex)
+    out.real, out.imag = _log_abs(q), np.arctan2(q.imag, q.real)
+    return out
+
+
+def _log_abs(q) -> np.ndarray:
+    """``max(log |q|, -50)`` from ``|q|^2`` (no square root: the residual's hot spot)."""
+    a = q.real * q.real
+    a += q.imag * q.imag
     with np.errstate(divide="ignore"):
-        return np.maximum(np.log(np.abs(q)), -50.0) + 1j * np.angle(q)
+        np.log(a, out=a)
+    a *= 0.5
+    return np.maximum(a, -50.0, out=a)
 
 
 def cost(H, Hd) -> float:
@@ -93,10 +104,12 @@ def cost(H, Hd) -> float:
     float
     """
     q = H / Hd
-    with np.errstate(divide="ignore"):
-        a = np.maximum(np.log(np.abs(q)), -50.0)
-    p = np.angle(q)
-    return float(np.mean(a * a + p * p))
+    a = _log_abs(q)
+    p = np.arctan2(q.imag, q.real)
+    a *= a
+    p *= p
+    a += p
+    return float(np.mean(a))
 
 
 def noise_level(r) -> float:
