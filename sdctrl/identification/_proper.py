@@ -31,7 +31,8 @@ from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
-from sdctrl.identification._mode_split import OUT_OF_BAND, residual_block, split_modes
+from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, residual_block,
+                                               split_modes)
 from sdctrl.identification._proper_terms import (asymptotic_terms, model_residues,
                                                   phib_from_residues, pole_error)
 
@@ -275,7 +276,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             stacklevel=2)
     reasons.update(failed)
     nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons))
-    return nm.replace(residual=residual_block(cm, reasons))
+    extra = improper_terms(cm, nm, sel, reasons)
+    return nm.replace(residual=residual_block(cm, reasons, extra))
 
 
 def _transposed(cm, pairs, **options):
