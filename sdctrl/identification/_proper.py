@@ -165,7 +165,13 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     (3.52), unscalable at the collocated pairs (3.24), more modes than sensors (3.46)) are
     kept as they are, complex-mode terms (3.7) in ``nm.residual``
     (:class:`~sdctrl.modal.ResidualDynamics`, realised in the 2x2-block form 3.26-3.33).
-    So the normal-mode model reproduces the identified model at the tested I/O.  Which
+    Where properness enforced on the in-band modes alone changes their residues significantly
+    (more than 3 standard deviations of the residue, 3.58) and the identified model holds
+    out-of-band poles the in-band modes may couple to (section 3.3's assumption fails, e.g. a
+    dashpot), the identified residue minus the normal mode's (3.7 against 2.15) is kept at
+    the same pole in ``nm.residual`` too (reason ``"improper part: ..."``, after the other
+    poles; the normal modes are unchanged).  So the normal-mode model reproduces the
+    identified model at the tested I/O.  Which
     poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
     ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
     dynamics have no shapes: :meth:`~sdctrl.NormalModeModel.modified`,
