@@ -17,33 +17,35 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.identification._mode_split import OUT_OF_BAND
+from sdctrl.identification._mode_split import IMPROPER, OUT_OF_BAND
 from sdctrl.updating import logls
 
 #: measured mean logLS of nm against the data (noise-free, 1% noise; seed 1, 400 lines), with
-#: the identification that adds out-of-band poles while they are significant (before:
-#: truss_high 0.264 / 0.262, ladder 0.0475 / 0.0477, plate 1% 0.107)
+#: the improper parts of the in-band residues kept at their poles where significant (issue 22;
+#: before: truss 0.00719 / 0.01320, truss_high 0.00135 / 0.00281, ladder 0.01078 / 0.01198,
+#: plate 0.00503 / 0.00515, cluster unchanged; earlier still, with no out-of-band poles:
+#: truss_high 0.264 / 0.262, ladder 0.0475 / 0.0477, plate 1% 0.107).  Noise-free, where the
+#: correction is kept, the normal-mode model reproduces the identified model (truss_high 6.8e-8,
+#: ladder 3.8e-11: the identified figures); the lock is then 1.5x the identified model's.
 MEASURED = {
-    ("truss", 0.0): 0.00719, ("truss", 0.01): 0.01320,
-    ("truss_high", 0.0): 0.00135, ("truss_high", 0.01): 0.00281,
-    ("ladder", 0.0): 0.01078, ("ladder", 0.01): 0.01198,
-    ("plate", 0.0): 0.00503, ("plate", 0.01): 0.00515,
+    ("truss", 0.0): 0.004274, ("truss", 0.01): 0.01320,
+    ("truss_high", 0.0): 6.844e-08, ("truss_high", 0.01): 0.002806,
+    ("ladder", 0.0): 3.797e-11, ("ladder", 0.01): 0.001978,
+    ("plate", 0.0): 0.0006618, ("plate", 0.01): 0.001456,
     ("cluster", 0.0): 0.01026, ("cluster", 0.01): 0.84553,
 }
-#: members short of the acceptance bound max(3 x identified, 0.01) (locked instead): the
-#: ladder, 8% and 20% above 0.01 -- its identified model is exact (4e-11), the normal-mode
-#: model's error is the properness enforcement's (3.44: residue error 1.4%, at the 64.2 Hz
-#: mode, actuator 1).  The ladder's dashpots couple its in-band modes with modes outside
-#: the band (the modes with most residue error are its most damped: 23.8, 64.2, 78.4 Hz),
-#: which a normal-mode model on the in-band modes cannot hold (3.3.1's assumption).  Tried,
-#: no gain (noise-free ladder 0.0108): other reduced coordinates c_T (real SVD of c psi:
-#: 0.0108; rows equilibrated: 0.0110; whitened by psi psi^H: 0.0107, truss worse), refitting
-#: cphi and phib to the residues given the proper modes (0.0106, truss 0.0072 -> 0.0077),
-#: relative weights in the phib fit (0.018), the paired out-of-band poles (7.97, 10.0,
-#: 98.3 Hz) made modes too (0.0109-0.0113)
+#: every member but the cluster meets the acceptance bound max(3 x identified, 0.01) since the improper parts
+#: are kept (the ladder was short of it, at 0.0108 / 0.0120: the properness enforcement's
+#: residue error on its most damped modes, 23.8, 64.2, 78.4 Hz, which its dashpots couple with
+#: modes outside the band -- section 3.3's assumption fails there).  Tried before, no gain
+#: (noise-free ladder 0.0108): other reduced coordinates c_T (real SVD of c psi: 0.0108; rows
+#: equilibrated: 0.0110; whitened by psi psi^H: 0.0107, truss worse), refitting cphi and phib
+#: to the residues given the proper modes (0.0106, truss 0.0072 -> 0.0077), relative weights
+#: in the phib fit (0.018), the paired out-of-band poles (7.97, 10.0, 98.3 Hz) made modes too
+#: (0.0109-0.0113)
 #: The cluster (since identification finds its close blade modes: 1.01 / 1.67 before), 3%
-#: above 0.01 noise-free; at 1% its identification misses one blade mode (0.30).
-GAP = {("ladder", 0.0), ("ladder", 0.01), ("cluster", 0.0), ("cluster", 0.01)}
+#: above 0.01 noise-free; at 1% within 3x its identified model's (which misses one blade mode)
+GAP = {("cluster", 0.0)}
 
 
 @functools.cache
@@ -81,12 +83,17 @@ def test_normal_modes_reproduce_the_test_on_every_member(name, noise):
         assert nm.residual is None
     else:
         r = nm.residual
-        assert r.source.tolist() == np.flatnonzero(~in_band).tolist()
-        assert r.reasons == (OUT_OF_BAND,) * r.m
+        k = int((~in_band).sum())
+        assert r.source[:k].tolist() == np.flatnonzero(~in_band).tolist()
+        assert r.reasons[:k] == (OUT_OF_BAND,) * k
         # kept as they are: the identified poles and residues, bit for bit
-        assert np.array_equal(r.poles, cm.poles[r.source])
-        assert np.array_equal(r.residues, cm.residues[r.source])
+        assert np.array_equal(r.poles[:k], cm.poles[r.source[:k]])
+        assert np.array_equal(r.residues[:k], cm.residues[r.source[:k]])
         assert r.sensors == cm.sensors and r.actuators == cm.actuators
+        # then the improper parts of in-band residues, at the identified poles of modes
+        assert r.reasons[k:] == (IMPROPER,) * (r.m - k)
+        assert set(r.source[k:].tolist()) <= set(np.flatnonzero(in_band).tolist())
+        assert np.array_equal(r.poles[k:], cm.poles[r.source[k:]])
 
 
 @pytest.mark.parametrize("name,noise", [("plate", 0.0), ("truss", 0.01)])
@@ -108,18 +115,25 @@ def test_a_mode_that_cannot_be_made_proper_stays_residual_with_the_reason():
         nm = sd.normal_modes(bad, std=False)
     out = np.flatnonzero(~np.asarray(cm.in_band, bool)).tolist()
     assert nm.properness.poles_used.tolist() == [j for j in range(cm.n) if j != 4 and j not in out]
-    assert nm.residual.source.tolist() == sorted([4] + out)
+    k = len(out) + 1                                 # then the improper parts (IMPROPER)
+    assert nm.residual.source[:k].tolist() == sorted([4] + out)
+    assert nm.residual.reasons[k:] == (IMPROPER,) * (nm.residual.m - k)
     reason = dict(zip(nm.residual.source.tolist(), nm.residual.reasons))
     assert "Riccati equation (3.52) has no small real root" in reason[4]
     assert all(reason[j] == OUT_OF_BAND for j in out)
     H = bad.frf(frf.freq, quantity=frf.quantity).H
-    assert logls(nm.frf(frf.freq, quantity=frf.quantity).H, H) < 0.02     # measured 0.0129
+    # measured 0.0129 before the improper parts were kept, 3e-26 with them (issue 22)
+    assert logls(nm.frf(frf.freq, quantity=frf.quantity).H, H) < 1e-12
 
 
 def test_roving_hammer_orientation_keeps_the_residual_block():
     """The transposed test (few sensors, many actuators) is transformed by reciprocity and
     turned back; its residual block is turned back with it."""
-    frf, cm, nm = _chain("truss", 0.0)
+    frf, cm, _ = _chain("truss", 0.0)
+    # the transposed copy has no statistics, so no improper parts (IMPROPER): compare alike
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        nm = sd.normal_modes(cm.replace(statistics=None), std=False)
     cm_t = cm.replace(residues=np.swapaxes(cm.residues, 1, 2), E=np.asarray(cm.E).T,
                       F=np.asarray(cm.F).T, sensors=cm.actuators, actuators=cm.sensors,
                       collocated=tuple((a, s) for s, a in cm.collocated))

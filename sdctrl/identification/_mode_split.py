@@ -11,6 +11,17 @@ one at a time, best first.  The poles left over are kept as complex-mode residua
 (:class:`~sdctrl.modal.ResidualDynamics`) with the reason of each and, when the model
 carries statistics, the standard deviations of their poles and residues (3.56), (3.58).
 
+:func:`improper_terms` keeps, at an in-band pole made a mode, the part of the identified
+residue that the proper normal mode does not reproduce (identified residue minus the normal-mode
+model's residue at that pole, 3.7 against 2.15), as a complex-mode term at the same pole --
+where the thesis' assumption of section 3.3 (damping couples the identified modes only; 3.3.2,
+"the assumption of normal mode decoupling from higher frequency modes may not be good enough")
+is contradicted by the data: the identified model holds out-of-band poles (dynamics outside
+the band the in-band modes can couple to) and the improper part exceeds ``IMPROPER_SIGMAS``
+standard deviations of the residue (3.58).  Each kept part adds two states per dyad to the
+realisation (3.26-3.33).  Otherwise the improper part is identification
+error or noise, and the proper modes are the better estimate.
+
 Internal module: the functions trust their inputs.
 """
 
@@ -23,11 +34,22 @@ import numpy as np
 from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
-__all__ = ["OUT_OF_BAND", "residual_block", "split_modes"]
+__all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "residual_block",
+           "split_modes"]
 
 #: reason recorded for the poles fitted outside the band
 OUT_OF_BAND = ("out of band: a pole fitted to absorb out-of-band modes (it may stand for "
                "several), not scaled as a mode by collocated residues it does not have")
+
+
+#: reason recorded for the improper part of an in-band residue kept at its pole
+IMPROPER = ("improper part: the identified residue minus the proper normal mode's at this pole "
+            "(3.7 against 2.15), significant against the residue's standard deviation (3.58) "
+            "with out-of-band poles the in-band modes may couple to (3.3)")
+
+#: an improper part is kept when its norm exceeds this many standard deviations of the residue
+#: (norm of the per-entry standard deviations, 3.58): the usual three-sigma significance
+IMPROPER_SIGMAS = 3.0
 
 
 def _try(attempt, sel):
@@ -92,7 +114,61 @@ def split_modes(candidates, ns: int, attempt):
     return np.array(sorted(kept), int), reasons
 
 
-def residual_block(cm, reasons: dict) -> ResidualDynamics | None:
+def _model_residues(nm, poles):
+    """Residues (2.9) of the normal modes of ``nm`` at the tested I/O, at the poles matching
+    ``poles`` one to one (nearest), shape (len(poles), ns, na)."""
+    from scipy.optimize import linear_sum_assignment
+
+    n = nm.n
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-nm.Omega, -nm.Gamma]])
+    lam, V = np.linalg.eig(A)
+    W = np.linalg.inv(V)
+    up = np.flatnonzero(lam.imag > 0)
+    R = np.einsum("ij,jk->jik", nm.cphi @ V[:n, up], W[up, n:] @ nm.phib)
+    _, col = linear_sum_assignment(np.abs(poles[:, None] - lam[up][None, :]))
+    return R[col]
+
+
+def improper_terms(cm, nm, sel, reasons: dict):
+    """The significant improper parts of the residues of the poles ``sel`` made modes in ``nm``.
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The identified model (its statistics give the residue standard deviations, 3.58).
+    nm : NormalModeModel
+        The normal-mode model of the poles ``sel``.
+    sel : ndarray of int
+        Poles of ``cm`` made normal modes, in the order of ``nm``'s construction.
+    reasons : dict of int to str
+        The poles kept as residual dynamics (out-of-band ones among them).
+
+    Returns
+    -------
+    index : ndarray of int
+        Poles of ``cm`` whose improper part is kept (sorted).
+    residues : ndarray, shape (len(index), ns, na), complex
+        ``R_j - R_nm(lambda_j)``, the identified residue minus the normal mode's (3.7, 2.15),
+        kept where its norm exceeds ``IMPROPER_SIGMAS`` times the norm of the residue's
+        standard deviations (3.58).
+    """
+    sel = np.asarray(sel, int)
+    none = np.zeros(0, int), np.zeros((0, cm.ns, cm.na), complex)
+    if OUT_OF_BAND not in reasons.values() or cm.statistics is None or sel.size == 0:
+        return none
+    lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
+    D = R - _model_residues(nm, lam)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        std = np.asarray(cm.residue_std())[sel]
+    size = np.sqrt(np.sum(np.abs(D) ** 2, axis=(1, 2)))
+    scale = np.sqrt(np.sum(std**2, axis=(1, 2)))
+    keep = np.isfinite(scale) & (size > IMPROPER_SIGMAS * scale)
+    order = np.argsort(sel[keep])
+    return sel[keep][order], D[keep][order]
+
+
+def residual_block(cm, reasons: dict, improper=None) -> ResidualDynamics | None:
     """The poles of ``reasons`` as complex-mode residual dynamics of ``cm`` (3.7), or None.
 
     Parameters
@@ -101,18 +177,29 @@ def residual_block(cm, reasons: dict) -> ResidualDynamics | None:
         The identified model.
     reasons : dict of int to str
         Index of each pole kept as residual dynamics and why.
+    improper : (ndarray of int, ndarray), optional
+        :func:`improper_terms`: poles of modes whose improper part is kept, and those parts;
+        appended after the poles of ``reasons`` (reason :data:`IMPROPER`).
 
     Returns
     -------
     ResidualDynamics or None
     """
     idx = np.array(sorted(reasons), int)
-    if idx.size == 0:
+    extra, D = improper if improper is not None else (np.zeros(0, int), None)
+    if idx.size + extra.size == 0:
         return None
     kw = {}
     if cm.statistics is not None:                  # the uncertainty the test leaves (3.58)
         pole, res = part_std(cm.statistics, np.shape(cm.residues))
-        kw = {"pole_std": pole[idx], "residue_std": res[idx]}
-    return ResidualDynamics(np.asarray(cm.poles)[idx], np.asarray(cm.residues)[idx],
+        # an improper part's pole is its mode's, whose uncertainty the modes carry (0 here)
+        kw = {"pole_std": np.concatenate([pole[idx], np.zeros(extra.size, complex)]),
+              "residue_std": np.concatenate([res[idx], res[extra]])}
+    R = np.asarray(cm.residues)[idx]
+    if extra.size:
+        R = np.concatenate([R, D])
+    return ResidualDynamics(np.asarray(cm.poles)[np.concatenate([idx, extra])], R,
                             sensors=cm.sensors, actuators=cm.actuators,
-                            reasons=tuple(reasons[int(j)] for j in idx), source=idx, **kw)
+                            reasons=tuple(reasons[int(j)] for j in idx)
+                            + (IMPROPER,) * extra.size, source=np.concatenate([idx, extra]),
+                            **kw)

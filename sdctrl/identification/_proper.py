@@ -31,7 +31,8 @@ from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
-from sdctrl.identification._mode_split import OUT_OF_BAND, residual_block, split_modes
+from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, residual_block,
+                                               split_modes)
 from sdctrl.identification._proper_terms import (asymptotic_terms, model_residues,
                                                   phib_from_residues, pole_error)
 
@@ -164,7 +165,13 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     (3.52), unscalable at the collocated pairs (3.24), more modes than sensors (3.46)) are
     kept as they are, complex-mode terms (3.7) in ``nm.residual``
     (:class:`~sdctrl.modal.ResidualDynamics`, realised in the 2x2-block form 3.26-3.33).
-    So the normal-mode model reproduces the identified model at the tested I/O.  Which
+    Where properness enforced on the in-band modes alone changes their residues significantly
+    (more than 3 standard deviations of the residue, 3.58) and the identified model holds
+    out-of-band poles the in-band modes may couple to (section 3.3's assumption fails, e.g. a
+    dashpot), the identified residue minus the normal mode's (3.7 against 2.15) is kept at
+    the same pole in ``nm.residual`` too (reason ``"improper part: ..."``, after the other
+    poles; the normal modes are unchanged).  So the normal-mode model reproduces the
+    identified model at the tested I/O.  Which
     poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
     ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
     dynamics have no shapes: :meth:`~sdctrl.NormalModeModel.modified`,
@@ -275,7 +282,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             stacklevel=2)
     reasons.update(failed)
     nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons))
-    return nm.replace(residual=residual_block(cm, reasons))
+    extra = improper_terms(cm, nm, sel, reasons)
+    return nm.replace(residual=residual_block(cm, reasons, extra))
 
 
 def _transposed(cm, pairs, **options):

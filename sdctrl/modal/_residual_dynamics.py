@@ -4,8 +4,9 @@
 3.40-3.44).  What cannot be made a normal mode -- poles fitted outside the band to absorb
 out-of-band modes (one pole may stand for several modes, its residue is not the dyad of a
 collocated mode), or modes whose properness cannot be enforced (no small real root of the
-Riccati equation 3.52, too few sensors for the reduced coordinates 3.46-3.47) -- stays a
-complex-mode term ``R_j / (s - lambda_j) + conj(R_j) / (s - conj(lambda_j))`` (3.7) in a
+Riccati equation 3.52, too few sensors for the reduced coordinates 3.46-3.47), and the
+significant improper part of an in-band residue (the identified residue minus the proper
+normal mode's at the same pole) -- stays a complex-mode term ``R_j / (s - lambda_j) + conj(R_j) / (s - conj(lambda_j))`` (3.7) in a
 :class:`ResidualDynamics` block.  The block lives at the tested inputs and outputs (it has no
 FE shapes): a model's FRF and state-space form add it where the model's sensor and actuator
 labels match the block's, realised in the real 2x2-block form (3.26)-(3.33)
@@ -39,7 +40,9 @@ class ResidualDynamics(FrozenState):
         Labels of the tested outputs and inputs the residues belong to; a model adds the
         block where its own labels match them.
     reasons : sequence of str, shape (m,)
-        Why each pole is not a normal mode (e.g. ``"out of band"``, the Riccati failure).
+        Why each pole is not a normal mode (e.g. ``"out of band"``, the Riccati failure), or
+        ``"improper part: ..."`` for the part of a mode's residue its normal mode does not
+        reproduce (that pole is also a normal mode).
     source : array_like of int, shape (m,), optional
         Index of each pole in the complex-mode model it came from.
     pole_std : array_like, shape (m,), complex, optional
