@@ -32,7 +32,7 @@ MEASURED = {
     ("truss_high", 0.0): 6.844e-08, ("truss_high", 0.01): 0.002806,
     ("ladder", 0.0): 3.797e-11, ("ladder", 0.01): 0.001978,
     ("plate", 0.0): 0.0006618, ("plate", 0.01): 0.001456,
-    ("cluster", 0.0): 0.01026, ("cluster", 0.01): 0.84553,
+    ("cluster", 0.0): 7.961e-05, ("cluster", 0.01): 1.02822,
 }
 #: every member but the cluster meets the acceptance bound max(3 x identified, 0.01) since the improper parts
 #: are kept (the ladder was short of it, at 0.0108 / 0.0120: the properness enforcement's
@@ -43,9 +43,10 @@ MEASURED = {
 #: to the residues given the proper modes (0.0106, truss 0.0072 -> 0.0077), relative weights
 #: in the phib fit (0.018), the paired out-of-band poles (7.97, 10.0, 98.3 Hz) made modes too
 #: (0.0109-0.0113)
-#: The cluster (since identification finds its close blade modes: 1.01 / 1.67 before), 3%
-#: above 0.01 noise-free; at 1% within 3x its identified model's (which misses one blade mode)
-GAP = {("cluster", 0.0)}
+#: The cluster at 1% (its identification finds 4 of its 5 modes, 0.30; the improper parts
+#: kept carry that error: 0.846 without them, 1.028 with them, above 3x 0.30).  Noise-free the
+#: cluster went 1.01 -> 0.0103 (close modes identified) -> 8e-5 (improper parts kept).
+GAP = {("cluster", 0.01)}
 
 
 @functools.cache

@@ -16,7 +16,12 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.identification._mode_split import IMPROPER, OUT_OF_BAND, _model_residues
+from sdctrl.identification._mode_split import (
+    IMPROPER,
+    OUT_OF_BAND,
+    _model_residues,
+    improper_terms,
+)
 from sdctrl.updating import logls
 
 
@@ -76,10 +81,17 @@ def test_noise_level_improper_parts_are_not_kept(name, noise):
 
 
 def test_no_out_of_band_poles_no_improper_part():
-    """Cluster: every pole in band, the improper parts are identification error (the identified
-    model misses the clustered modes, logLS 1.27 against 1.01 for the proper modes)."""
-    frf, cm, nm = _chain("cluster", 0.0)
-    assert np.asarray(cm.in_band).all() and nm.residual is None
+    """The rule's first condition: without out-of-band poles (nothing outside the band the
+    in-band modes could couple to) the improper parts are identification error and none is
+    kept -- the noise-free ladder's, kept with its out-of-band poles, are dropped when the
+    same modes come with no out-of-band pole among the residual reasons."""
+    frf, cm, nm = _chain("ladder", 0.0)
+    sel = nm.properness.poles_used
+    oob = {int(j): OUT_OF_BAND for j in np.flatnonzero(~np.asarray(cm.in_band))}
+    assert improper_terms(cm, nm, sel, oob)[0].size > 0
+    other = {j: "another reason" for j in oob}
+    idx, D = improper_terms(cm, nm, sel, other)
+    assert idx.size == 0 and D.shape == (0, cm.ns, cm.na)
 
 
 def test_no_statistics_no_improper_part():
