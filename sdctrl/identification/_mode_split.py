@@ -191,7 +191,7 @@ def residual_block(cm, reasons: dict, improper=None) -> ResidualDynamics | None:
         return None
     kw = {}
     if cm.statistics is not None:                  # the uncertainty the test leaves (3.58)
-        pole, res = part_std(cm.statistics, np.shape(cm.residues))
+        pole, res = part_std(cm.statistics, cm.poles, np.shape(cm.residues))
         # an improper part's pole is its mode's, whose uncertainty the modes carry (0 here)
         kw = {"pole_std": np.concatenate([pole[idx], np.zeros(extra.size, complex)]),
               "residue_std": np.concatenate([res[idx], res[extra]])}

@@ -437,21 +437,27 @@ def coefficient_variance(stats: FitStatistics, direct_only: bool = False) -> np.
     return var
 
 
-def part_std(stats: FitStatistics | None, shape: tuple) -> tuple:
+def part_std(stats: FitStatistics | None, poles, shape: tuple,
+             direct_only: bool = False) -> tuple:
     """Standard deviations of the real and imaginary parts of the poles and residues.
 
-    The poles' from the diagonal of ``S`` (3.56); the residues' from both parts of (3.58)
+    The poles' from the diagonal of ``S`` (3.56); the residues' from (3.58)
     (:func:`coefficient_variance`: the complex parametrisation's coefficients are ``Re R``
-    and ``Im R``; the real one's single coefficient gives ``|R|``'s std, shared equally by
-    the two parts).  Used for the uncertainty of residual dynamics (complex modes kept as
-    they are, :class:`~sdctrl.modal.ResidualDynamics`).
+    and ``Im R``; the real one's single coefficient ``c`` is ``R (l - conj l)``, so ``|R|``'s
+    variance is ``var c / |l - conj l|^2``, shared equally by the two parts).  Used for the
+    residue std of :func:`~sdctrl.identification._variance.residue_std` and for the
+    uncertainty of residual dynamics (:class:`~sdctrl.modal.ResidualDynamics`).
 
     Parameters
     ----------
     stats : FitStatistics or None
         Covariance blocks of the fit.
+    poles : ndarray, shape (n,)
+        The poles (rad/s).
     shape : tuple of int
         ``(n, ns, na)`` of the model's residues.
+    direct_only : bool
+        Only the direct part of (3.58) for the residues (poles held fixed).
 
     Returns
     -------
@@ -467,11 +473,12 @@ def part_std(stats: FitStatistics | None, shape: tuple) -> tuple:
     bad = undetermined(stats)
     pole = np.empty(n, complex)
     pole.real, pole.imag = np.where(bad, np.nan, d[0::2]), np.where(bad, np.nan, d[1::2])
-    var = coefficient_variance(stats)                                    # (q, m)
+    var = coefficient_variance(stats, direct_only)                       # (q, m)
     if stats.model == "complex":
         re, im = np.sqrt(var[0:2 * n:2]), np.sqrt(var[1:2 * n:2])
     else:
-        re = im = np.sqrt(var[:n] / 2)
+        lam = np.asarray(poles, complex)
+        re = im = np.sqrt(var[:n] / (2 * np.abs(lam - lam.conj())[:, None] ** 2))
     res = np.empty(re.shape, complex)
     res.real, res.imag = re, im                  # NaN kept part by part
     return pole, res.reshape(shape)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from sdctrl._lib.threads import single_thread
-from sdctrl.identification._pole_statistics import coefficient_variance, fit_statistics
+from sdctrl.identification._pole_statistics import fit_statistics, part_std
 
 __all__ = ["model_statistics", "residue_std", "statistics_or_none"]
 
@@ -117,12 +117,7 @@ def residue_std(cm, frf=None, n_averages: int | None = None,
         data = frf.band(*cm.band) if cm.band is not None else frf
         with single_thread():                     # small dense kernels, as identify
             stats = model_statistics(cm, data, n_averages)
-    n = cm.n
     if stats is None:
         return np.full(cm.residues.shape, np.nan)
-    var = coefficient_variance(stats, direct_only)                      # (q, m)
-    if stats.model == "complex":
-        v = var[0:2 * n:2] + var[1:2 * n:2]
-    else:
-        v = var[:n] / np.abs(cm.poles - cm.poles.conj())[:, None] ** 2
-    return np.sqrt(v).reshape(n, cm.ns, cm.na)
+    parts = part_std(stats, cm.poles, np.shape(cm.residues), direct_only)[1]
+    return np.hypot(parts.real, parts.imag)
