@@ -9,7 +9,6 @@ noise (1% truss) or where the identified model has no out-of-band poles (cluster
 added.
 """
 
-import functools
 import warnings
 
 import numpy as np
@@ -23,16 +22,7 @@ from sdctrl.identification._mode_split import (
     improper_terms,
 )
 from sdctrl.updating import logls
-
-
-@functools.cache
-def _chain(name, noise):
-    frf = sd.testbeds.structure(name).frf(n=400, noise=noise, seed=1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        cm = sd.identify(frf)
-        nm = sd.normal_modes(cm, std=False)
-    return frf, cm, nm
+from test_family_normal_modes import _chain    # one cached chain per member for both files
 
 
 def _improper(nm):
