@@ -102,7 +102,7 @@ def uncertain_from_data(models, level: float = 0.95) -> UncertainModel:
         bounds = {k: z * np.asarray(m.std[k]) for k in _KEYS}
         source = f"identification statistics ({level:.0%}: {z:.3g} std)"
         nominal = m
-        residual, note = _residual_bounds(m, z)
+        residual, note = _statistical_residual_bounds(m, z)
         source += note
     else:
         residual = {}
@@ -129,7 +129,7 @@ def uncertain_from_data(models, level: float = 0.95) -> UncertainModel:
     return dataclasses.replace(um, source=source)
 
 
-def _residual_bounds(model, z: float) -> tuple[dict, str]:
+def _statistical_residual_bounds(model, z: float) -> tuple[dict, str]:
     """``z`` std bounds of the model's residual dynamics (NaN: certain) and a note."""
     res = getattr(model, "residual", None)
     if res is None or res.pole_std is None or res.residue_std is None:
