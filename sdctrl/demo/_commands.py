@@ -40,9 +40,10 @@ def _warnings_block(section, entry) -> None:
         section.code("\n".join(entry.warnings))
 
 
-def _sections(doc, entries, extra: dict) -> None:
-    """One section per step of ``entries``, in order: the record's own, or the failure."""
-    for entry in entries:
+def _sections(doc, log, extra: dict, start: int = 0) -> None:
+    """One section per step from the ``start``-th on, in order: the record's own, or the
+    failure."""
+    for entry in log.entries[start:]:
         if entry.status != "ok":
             _failed_section(doc, entry)
             continue
@@ -204,11 +205,11 @@ def _story(out, noise, seed, quiet, progress) -> int:
     extra = {"update": (test and test.frf,), "hybrid": (upd and upd.result.fe,),
              "placement": (hy and hy.model,)}
     done = len(log.entries)          # steps 1-7: their sections (figures) drawn while the
-    _sections(doc, log.entries, extra)       # diagnosis still runs in its own process
+    _sections(doc, log, extra)               # diagnosis still runs in its own process
     report_seconds = time.perf_counter() - t0
     dg = _diagnosis(log, test, upd, progress, pending)
     t0 = time.perf_counter()
-    _sections(doc, log.entries[done:], extra)
+    _sections(doc, log, extra, start=done)
     models = {name: obj for name, obj in (
         ("test.uff", test and test.frf), ("identified", ident and ident.cm),
         ("normal_modes", nm and nm.nm), ("fe_updated", upd and upd.result.fe),
@@ -338,7 +339,7 @@ def identify_report(path: str, band=None, out: str | None = None, quiet: bool = 
                    "Modes identified from the measured FRFs with no initial guess (chapter "
                    "III) and, when the test has collocated pairs, the normal-mode model with "
                    "its full damping matrix (3.3). The models are saved next to this report.")
-    _sections(doc, log.entries, {})
+    _sections(doc, log, {})
     models = {k: v for k, v in (("identified", ident and ident.cm), ("normal_modes", nm and nm.nm))
               if v is not None}
     summary = _summary(log)
