@@ -34,6 +34,8 @@ sdctrl, issue 27 run    7.31 s  2.37 s  0.69   load 13-15 (2 cores, 4 sessions):
 EMA, same run          10.65 s 11.21 s        fresh figure is imports under load (warm 0.21)
 sdctrl, perf branch     8.51 s  2.48 s  0.59   load 8.8 -> 12.0 (2 cores, 5 sessions);
 EMA, same run          14.50 s 3.99 s         ``import sdctrl`` 0.00 s (lazy), EMA's 9.1 s
+sdctrl, perf2 branch    1.96 s  0.60 s  0.32   load 10.8-11.1, byte-code caches kept (see
+EMA, same run          6.23 s  3.62 s         :func:`fresh`); 0.35 in a second run
 =====================  ======  ======  =====  =========================================
 
 On the perf branch a fresh ``identify`` imports scipy.linalg, scipy.special (``chdtri``) and
