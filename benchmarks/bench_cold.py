@@ -34,6 +34,8 @@ sdctrl, issue 27 run    7.31 s  2.37 s  0.69   load 13-15 (2 cores, 4 sessions):
 EMA, same run          10.65 s 11.21 s        fresh figure is imports under load (warm 0.21)
 sdctrl, perf branch     8.51 s  2.48 s  0.59   load 8.8 -> 12.0 (2 cores, 5 sessions);
 EMA, same run          14.50 s 3.99 s         ``import sdctrl`` 0.00 s (lazy), EMA's 9.1 s
+sdctrl, perf2 branch    1.96 s  0.60 s  0.32   load 10.8-11.1, byte-code caches kept (see
+EMA, same run          6.23 s  3.62 s         :func:`fresh`); 0.35 in a second run
 =====================  ======  ======  =====  =========================================
 
 On the perf branch a fresh ``identify`` imports scipy.linalg, scipy.special (``chdtri``) and
@@ -120,8 +122,17 @@ REPORT = "\nprint(repr((t1 - t0, t2 - t0)))\n"
 
 def fresh(name: str, path: str) -> tuple[float, float]:
     """(import seconds, total seconds) of ``name`` in a new interpreter (data load excluded:
-    the loader runs before the timed code starts, but in the same process)."""
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    the loader runs before the timed code starts, but in the same process).
+
+    The interpreter reads and writes byte-code caches as an installed package has them
+    (``pip install`` compiles every module): a shell with ``PYTHONDONTWRITEBYTECODE`` set
+    would otherwise make a checkout recompile its modules from source on every run while
+    a reference installed in site-packages does not.  The caches go to a private folder
+    (``PYTHONPYCACHEPREFIX``, filled by an untimed first run of each candidate), never into
+    the source tree."""
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               PYTHONPYCACHEPREFIX=os.path.join(os.path.dirname(path), "pycache"))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     code = LOADER.format(path=path) + CHILD[name] + REPORT
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=env, check=True).stdout
@@ -168,11 +179,13 @@ def save(data: dict, path: str) -> None:
     np.savez(path, **out)
 
 
-def run(title: str, names: tuple, data: dict, runs: int, tmp: str) -> list:
+def run(title: str, names: tuple, data: dict, runs: int, tmp: str, prime: bool = True) -> list:
     path = os.path.join(tmp, "case.npz")
     save(data, path)
     fr = {n: [] for n in names}
     wa = {n: [] for n in names}
+    for n in names if prime else ():     # untimed: fills the byte-code caches (see fresh)
+        fresh(n, path)
     for r in range(runs):
         for n in (names if r % 2 == 0 else names[::-1]):
             fr[n].append(fresh(n, path))
@@ -210,8 +223,9 @@ def main() -> None:
                             ema_data(), args.runs, tmp)
             elif case == "fe":
                 data = fe_data(args.levels)
-                rows += run(f"FE modes(20), N={data['M'].shape[0]}",
-                            ("sdctrl FEModel.modes", "scipy eigsh"), data, args.runs, tmp)
+                rows += run(f"FE modes(20), N={data['M'].shape[0]}",   # minutes: the first
+                            ("sdctrl FEModel.modes", "scipy eigsh"), data, args.runs, tmp,
+                            prime=False)               # run's compilation is negligible
             print(f"  {case}: {time.perf_counter() - t:.0f} s")
     table(rows)
     print(f"load average at end: {os.getloadavg()}")

@@ -123,3 +123,36 @@ def test_chunked_placement_skips_what_the_dense_path_refuses(lat, case):
         placement_study(h, fe, lat.band, kv=300.0, kp=kp, candidates=bars, progress=False)
     assert str(chunked.value) == ("candidates: none could be evaluated (closed loop with "
                                   f"kv=300, kp={kp:g}: {dense.value})")
+
+
+def test_default_thread_pool_gives_the_serial_result_bit_for_bit(lat, case, monkeypatch):
+    import os
+    import threading
+
+    import sdctrl.closedloop._placement as placement
+
+    fe, h = case
+    bars = list(fe.elements[::7])[:placement.CHUNK + 2]         # two chunks: the pool runs
+    seen = []
+    evaluate = placement._evaluate
+
+    def spy(chunk, loop):
+        seen.append(threading.current_thread() is threading.main_thread())
+        return evaluate(chunk, loop)
+
+    monkeypatch.setattr(placement, "_evaluate", spy)
+    kw = {"candidates": bars, "outputs": list(h.sensors[::2]), "progress": False}
+    pooled = placement_study(h, fe, lat.band, kv=300.0, **kw)
+    assert seen == [(os.cpu_count() or 1) < 2] * 2              # workers, not this thread
+    monkeypatch.setattr(placement, "THREADS", 1)
+    seen.clear()
+    serial = placement_study(h, fe, lat.band, kv=300.0, **kw)
+    assert seen == [True, True]
+    assert len(serial.candidates) == len(bars) - len(serial.skipped) > placement.CHUNK
+    assert [c.bar for c in pooled.candidates] == [c.bar for c in serial.candidates]
+    for a, b in zip(pooled.candidates, serial.candidates):
+        for name in ("frequency", "damping", "rms", "reduction"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+        assert a.score == b.score
+    assert pooled.skipped == serial.skipped
+    assert np.array_equal(pooled.rms_open, serial.rms_open)

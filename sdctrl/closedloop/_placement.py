@@ -22,6 +22,8 @@ __all__ = ["Candidate", "PlacementStudy", "placement_study"]
 
 #: candidate bars per task of an executor
 CHUNK = 25
+#: threads of the default pool (``executor=None``) when the machine has that many CPUs
+THREADS = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -349,7 +351,10 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     executor : concurrent.futures.Executor, optional
         Evaluates the candidates in chunks of ``CHUNK`` bars (threads, processes, a Dask
         client's ``get_executor()``: the model and the FE model are then scattered to the
-        workers once); the result is identical to the serial run's.
+        workers once); the result is identical to the serial run's.  None (default): a
+        pool of ``THREADS`` (2) threads with one BLAS thread each when the machine has
+        that many CPUs and there are two chunks or more, else serially -- the same
+        result either way.
 
     Returns
     -------
@@ -392,8 +397,7 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     loop = _Loop(_reduced(model), np.asarray(model.shapes), fe, static, (lo, hi), out_idx,
                  psd, kp, kv, criterion, p_open, plain)
     loop = replace(loop, rms_open=_open_rms(loop))
-    done = map_chunks(_evaluate, chunked(candidates, CHUNK), loop, executor, progress,
-                      "D-strut placement", "chunk")
+    done = _sweep(loop, chunked(candidates, CHUNK), executor, progress)
     results = [c for chunk in done for _, c, _ in chunk if c is not None]
     skipped = [(bar, why) for chunk in done for bar, c, why in chunk if c is None]
     rms_open = loop.rms_open
@@ -404,6 +408,32 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     return PlacementStudy(tuple(results), (lo, hi), tuple(sensors[i] for i in out_idx),
                           np.abs(p_open) / (2 * np.pi), -p_open.real / np.abs(p_open),
                           rms_open, kp, kv, criterion, tuple(skipped))
+
+
+def _sweep(loop, parts, executor, progress) -> list:
+    """The chunks' results, on ``executor``, else on a pool of :data:`THREADS` threads.
+
+    The default pool needs two chunks and as many CPUs; its workers share the model, the
+    FE model and its factorisation (built here first, not by two workers at once), and the
+    whole sweep runs under one BLAS thread limit (the limit is process-wide: a worker
+    leaving its chunk's limit must not lift the other's).  Each chunk is evaluated by the
+    same function on the same numbers as in a serial run, so the results are identical.
+    """
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = None
+    if executor is None and len(parts) > 1 and (os.cpu_count() or 1) >= THREADS > 1:
+        pool = ThreadPoolExecutor(THREADS)
+        if loop.static is not None:
+            loop.static.fe.static_response(np.zeros((loop.static.fe.N, 1)))
+    try:
+        with single_thread():
+            return map_chunks(_evaluate, parts, loop, executor or pool, progress,
+                              "D-strut placement", "chunk")
+    finally:
+        if pool is not None:
+            pool.shutdown()
 
 
 def _outputs(outputs, sensors) -> list[str]:

@@ -282,9 +282,10 @@ def cover(fs: FactoredSystem, st: BlockStructure, w_start, level: float, rtol: f
     """Certify ``mu(M(j w)) <= level`` on ``[0, inf)``, raising ``level`` where needed.
 
     The cheap bound is computed at every ``w_start`` (vectorised) and certifies intervals
-    where it is below the level.  Then, in rounds, one frequency per uncovered gap (the start
-    frequency of largest cheap bound in it, else its middle) gets the D-G bound, warm started
-    from the nearest D-G frequency, and the interval its scalings certify.
+    where it is below the level (one interval per start frequency not already inside one).
+    Then, in rounds, one frequency per uncovered gap (the start frequency of largest cheap
+    bound in it, else its middle) gets the D-G bound, warm started from the nearest D-G
+    frequency, and the interval its scalings certify.
 
     Parameters
     ----------
@@ -321,6 +322,13 @@ def cover(fs: FactoredSystem, st: BlockStructure, w_start, level: float, rtol: f
     cheap_c, d_c = cheap_bounds(fs.core(cand), fs.L, fs.R, st)
     ok = cheap_c < level / (1 + rtol)
     for i in np.flatnonzero(ok):                    # cheap certificates: no optimisation
+        if any(lo <= cand[i] <= hi for lo, hi in intervals):
+            # already certified by a neighbour's interval: its cheap bound is kept (a bound
+            # computed there) without a Hamiltonian of its own; a coverage this shortcut
+            # loses is found as a gap below and filled like any other
+            ws.append(float(cand[i]))
+            bounds.append(float(cheap_c[i]))
+            continue
         span = interval(fs, st, st.start(d_c[i]), level, cand[i])
         if span[0] <= span[1]:
             intervals.append(span)
