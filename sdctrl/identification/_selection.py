@@ -41,7 +41,7 @@ from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._rules import INDEPENDENT, SelectionRules
 from sdctrl.identification._search import OUT_FACTOR, search_poles
-from sdctrl.identification._zoom import zoom_candidates
+from sdctrl.identification._zoom import sole_poles, zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
 
@@ -91,7 +91,7 @@ class AutoSelection:
         self.noise = NoiseTest(prob, significance, shape)
         self.rules = INDEPENDENT if rules is None else rules
         self.noise.floor = self.rules.floor * prob.normY2
-        self.scan = ResidualScan(prob, freq, self.noise)
+        self.scan = ResidualScan(prob, freq, self.noise, smooth=self.rules.smooth_scan)
         self.log = []
         self.warn = warn
         self.tried = []
@@ -192,7 +192,11 @@ class AutoSelection:
         reasons = self._rejected(w, z, side, info, ev)
         if not reasons and weak:
             sig = self.significance(w, z, ev, side)
-            weak = np.flatnonzero(sig < 1.0)
+            ib, low = side == 0, sig < 1.0          # the last pole of a window with modes
+            held = sole_poles(self.freq, self.prob.Y, self.noise.field(ev), f[ib], z[ib],
+                              low[ib]) if self.rules.close_modes else ~ib[ib]
+            low[np.flatnonzero(ib)[held]] = False   # stays (_zoom module notes)
+            weak = np.flatnonzero(low)
             if weak.size:
                 # the weakest, and with it every clearly insignificant pole with no other
                 # pole nearby (two poles sharing one mode each look insignificant)
