@@ -96,9 +96,13 @@ def test_the_last_pole_of_a_window_with_modes_is_held():
     sig2 = 1e-4 * np.abs(H.reshape(nf, -1)) ** 2 + 1e-30      # the noise's own variance
     one = np.array([10.22, 37.0])                               # one pole for the cluster
     z = np.array([0.003, 0.002])
-    assert sole_poles(f, Y, sig2, one, z, np.array([True, False])).tolist() == [True, False]
+    inb = np.ones(2, bool)
+    assert sole_poles(f, Y, sig2, one, z, inb, np.array([True, False])).tolist() == [
+        True, False]
+    assert not sole_poles(f, Y, sig2, one, z, ~inb, inb).any()  # out-of-band: not held
     two = np.array([10.17, 10.27, 37.0])                        # two poles in one window
-    assert not sole_poles(f, Y, sig2, two, np.full(3, 0.003), np.ones(3, bool))[:2].any()
+    assert not sole_poles(f, Y, sig2, two, np.full(3, 0.003), np.ones(3, bool),
+                          np.ones(3, bool))[:2].any()
     rng = np.random.default_rng(0)
     Yn = rng.standard_normal(Y.shape)                           # no mode: nothing held
-    assert not sole_poles(f, Yn, np.ones_like(sig2), one, z, np.ones(2, bool)).any()
+    assert not sole_poles(f, Yn, np.ones_like(sig2), one, z, inb, inb).any()

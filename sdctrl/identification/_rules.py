@@ -10,15 +10,15 @@ Two kinds of FRF call for different rules, and the data say which they are:
   retried once the model has changed; close modes are looked for by the local rank of
   the data (3.20)-(3.22, :mod:`~sdctrl.identification._zoom`) and the last pole of a
   window where the data show modes is not removed as insignificant (a pole standing for
-  several close modes meets their residual as noise); the residual scan compares its
-  trials with the second-difference noise field (the residual of unfitted close modes,
-  smooth over the lines around them, is no noise); poles the last fit pushed to a bound
-  are dropped at the end;
+  several close modes meets their residual as noise); when neither the residual scan nor
+  the zoom finds a mode, the scan is repeated against the second-difference noise field
+  (the residual of unfitted close modes, smooth over the lines around them, is no
+  noise); poles the last fit pushed to a bound are dropped at the end;
 * an FRF measured through an exponential window (``frf.exponential_tau``) has noise
   correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8 between neighbours on a
   hammer survey), which second differences and a local rank take for signal (a simulated
   roving-hammer survey's band filled with poles, 20 for 6): there the residual scan
-  meets the direct noise field, one out-of-band pole per side is tried, started at the
+  meets the direct noise field only, one out-of-band pole per side is tried, started at the
   band edge and judged against the direct noise field, a pole at any bound or narrower
   than the lines out of band is rejected, every candidate is tried once, and the
   exact-fit floor is higher (``1e-11``).
@@ -55,8 +55,8 @@ class SelectionRules:
         Look for close modes by the local rank of the data and a zoomed LSCF, and keep
         the last pole of a window where the data show modes.
     smooth_scan : bool
-        The residual scan compares its trials with the noise field of second
-        differences (True) or with the direct field (False).
+        When the residual scan (direct noise field) and the zoom find nothing, repeat the
+        scan against the noise field of second differences.
     final_prune : bool
         Drop, after the last fit, poles pushed to a bound.
     """

@@ -91,7 +91,7 @@ class AutoSelection:
         self.noise = NoiseTest(prob, significance, shape)
         self.rules = INDEPENDENT if rules is None else rules
         self.noise.floor = self.rules.floor * prob.normY2
-        self.scan = ResidualScan(prob, freq, self.noise, smooth=self.rules.smooth_scan)
+        self.scan = ResidualScan(prob, freq, self.noise)
         self.log = []
         self.warn = warn
         self.tried = []
@@ -191,12 +191,10 @@ class AutoSelection:
         f = w / (2 * np.pi)
         reasons = self._rejected(w, z, side, info, ev)
         if not reasons and weak:
-            sig = self.significance(w, z, ev, side)
-            ib, low = side == 0, sig < 1.0          # the last pole of a window with modes
-            held = sole_poles(self.freq, self.prob.Y, self.noise.field(ev), f[ib], z[ib],
-                              low[ib]) if self.rules.close_modes else ~ib[ib]
-            low[np.flatnonzero(ib)[held]] = False   # stays (_zoom module notes)
-            weak = np.flatnonzero(low)
+            sig = self.significance(w, z, ev, side)   # held: the last pole of a window
+            held = sole_poles(self.freq, self.prob.Y, self.noise.field(ev), f, z, side == 0,
+                              (sig < 1.0) & self.rules.close_modes)   # with modes (_zoom)
+            weak = np.flatnonzero((sig < 1.0) & ~held)
             if weak.size:
                 # the weakest, and with it every clearly insignificant pole with no other
                 # pole nearby (two poles sharing one mode each look insignificant)
@@ -469,9 +467,10 @@ class AutoSelection:
             # missed in-band modes: add at residual peaks, keep the significant ones;
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
-            new = self._add_missed(state, cand) if cand else None
-            if new is None:
-                new = self._close_modes(state)
+            new = (self._add_missed(state, cand) if cand else None) or self._close_modes(state)
+            if new is None and self.rules.smooth_scan:  # then against second differences
+                cand = self.scan.candidates(ev, self.tried, smooth=True)
+                new = self._add_missed(state, cand) if cand else None
             if new is None:
                 break
             state = self.best = new

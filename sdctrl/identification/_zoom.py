@@ -182,7 +182,7 @@ def local_rank(Y, sig2, lines, margin: float = 2.0) -> int:
     return int(np.count_nonzero(s2 > margin * edge))
 
 
-def sole_poles(freq, Y, sig2, f_poles, z_poles, check) -> np.ndarray:
+def sole_poles(freq, Y, sig2, f_poles, z_poles, in_band, check) -> np.ndarray:
     """Which in-band poles stand alone in a window where the data show modes (module
     notes): the last pole of a window is not removed as insignificant.
 
@@ -195,19 +195,19 @@ def sole_poles(freq, Y, sig2, f_poles, z_poles, check) -> np.ndarray:
     sig2 : ndarray, shape (nf, k)
         Noise field of the current fit.
     f_poles, z_poles : ndarray, shape (n,)
-        Frequencies (Hz) and damping ratios of the in-band poles.
-    check : ndarray of bool, shape (n,)
-        The poles to check (the others are False in the result).
+        Frequencies (Hz) and damping ratios of the poles.
+    in_band, check : ndarray of bool, shape (n,)
+        The in-band poles (the only ones a window counts), and the poles to check.
 
     Returns
     -------
     ndarray of bool, shape (n,)
-        True for a checked pole alone in its window (:func:`windows`, at least 12
-        lines) whose local rank (:func:`local_rank`) is two or more.
+        True for a checked in-band pole alone in its window (:func:`windows`, at least
+        12 lines) whose local rank (:func:`local_rank`) is two or more.
     """
     out = np.zeros(f_poles.size, bool)
-    for j in np.flatnonzero(check):
-        win = windows(freq, f_poles[j:j + 1], z_poles[j:j + 1], f_poles)[0]
+    for j in np.flatnonzero(check & in_band):
+        win = windows(freq, f_poles[j:j + 1], z_poles[j:j + 1], f_poles[in_band])[0]
         out[j] = (win.poles.size == 1 and win.lines.size >= 12
                   and local_rank(Y, sig2, win.lines) >= 2)
     return out
