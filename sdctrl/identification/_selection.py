@@ -468,8 +468,8 @@ class AutoSelection:
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
             new = (self._add_missed(state, cand) if cand else None) or self._close_modes(state)
-            if new is None and self.rules.smooth_scan:  # then against second differences
-                cand = self.scan.candidates(ev, self.tried, smooth=True)
+            if new is None and self.rules.smooth_scan and self.noise.independent(ev):
+                cand = self.scan.candidates(ev, self.tried, smooth=True)  # 2nd differences
                 new = self._add_missed(state, cand) if cand else None
             if new is None:
                 break
