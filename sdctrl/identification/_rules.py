@@ -18,10 +18,10 @@ Two kinds of FRF call for different rules, and the data say which they are:
   correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8 between neighbours on a
   hammer survey), which second differences and a local rank take for signal (a simulated
   roving-hammer survey's band filled with poles, 20 for 6): there the residual scan
-  meets the direct noise field only, one out-of-band pole per side is tried, started at the
-  band edge and judged against the direct noise field, a pole at any bound or narrower
-  than the lines out of band is rejected, every candidate is tried once, and the
-  exact-fit floor is higher (``1e-11``).
+  meets the direct noise field only, one out-of-band pole per side is tried, started at
+  the band edge and judged against the direct noise field, a pole at any bound or
+  narrower than the lines out of band is rejected, every candidate is tried once, and
+  the exact-fit floor is higher (``1e-11``).
 
 :func:`selection_rules` makes the choice from the FRF; the record carries one field per
 rule so that the selection code reads what it applies, not why.
@@ -56,7 +56,9 @@ class SelectionRules:
         the last pole of a window where the data show modes.
     smooth_scan : bool
         When the residual scan (direct noise field) and the zoom find nothing, repeat the
-        scan against the noise field of second differences.
+        scan against the noise field of second differences if the data show noise
+        independent between lines (:meth:`~sdctrl.identification._noise.NoiseTest.
+        independent`: an FRF of windowed records may not record its window).
     final_prune : bool
         Drop, after the last fit, poles pushed to a bound.
     """
