@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.identification._zoom import local_rank, mp_median
+from sdctrl.identification._zoom import local_rank, mp_median, sole_poles
 from sdctrl.updating import logls
 
 #: four modes within 0.14 Hz (0.04-0.06 Hz apart) sampled every 0.098 Hz, a separate
@@ -83,3 +83,26 @@ def test_identify_finds_modes_closer_than_a_line(noise, tol):
     zin = cm.damping[cm.in_band][np.argsort(cm.frequency[cm.in_band])]
     assert np.max(np.abs(zin - Z_MODES[:5]) / Z_MODES[:5]) < 0.05
     assert logls(cm.frf(f).H, H) < tol
+
+
+def test_the_last_pole_of_a_window_with_modes_is_held():
+    """A pole alone in a window where the data show modes is held (not removed as
+    insignificant: it may stand for several close modes); a pole among others, a pole in
+    pure noise and an unchecked pole are not."""
+    f, H, Hn = _cluster_frf(0.01, ns=8, na=2)
+    nf = f.size
+    Hm = Hn.reshape(nf, -1)
+    Y = np.vstack([Hm.real, Hm.imag])
+    sig2 = 1e-4 * np.abs(H.reshape(nf, -1)) ** 2 + 1e-30      # the noise's own variance
+    one = np.array([10.22, 37.0])                               # one pole for the cluster
+    z = np.array([0.003, 0.002])
+    inb = np.ones(2, bool)
+    assert sole_poles(f, Y, sig2, one, z, inb, np.array([True, False])).tolist() == [
+        True, False]
+    assert not sole_poles(f, Y, sig2, one, z, ~inb, inb).any()  # out-of-band: not held
+    two = np.array([10.17, 10.27, 37.0])                        # two poles in one window
+    assert not sole_poles(f, Y, sig2, two, np.full(3, 0.003), np.ones(3, bool),
+                          np.ones(3, bool))[:2].any()
+    rng = np.random.default_rng(0)
+    Yn = rng.standard_normal(Y.shape)                           # no mode: nothing held
+    assert not sole_poles(f, Yn, np.ones_like(sig2), one, z, inb, inb).any()

@@ -5,8 +5,12 @@ For a trial pole on a grid of lines (four damping levels, half-power bandwidths 
 parameters, ``||(G_p^T G_p)^-1/2 G_p^T r||^2`` with ``G_p`` its basis orthogonalised against
 the current one, is compared with the significance threshold of
 :class:`~sdctrl.identification._noise.NoiseTest` (noise level from the running median of
-the residual).  Local maxima above the threshold are the candidates, strongest first, one
-per half-power band.
+the residual; or, when the selection finds nothing else and the noise is independent
+between lines, of its second differences, so that the residual of close modes not
+fitted yet, smooth over the lines around them, is not taken for the noise that hides
+them: a cluster fitted by one pole showed no candidate against the direct field).  Local
+maxima above the threshold are the candidates, strongest first, one per half-power band;
+each is then judged by the significance test of the selection like any pole.
 
 On a uniform frequency grid the trials whose damping is not capped are placed on the
 lines with a real part common to their level, ``-2 pi mult df``; their correlations with
@@ -143,7 +147,7 @@ class ResidualScan:
             zlev[i0:i0 + ii.size] = zl
         return idx, level, zlev
 
-    def candidates(self, ev, tried=(), max_add: int = 6):
+    def candidates(self, ev, tried=(), max_add: int = 6, smooth: bool = False):
         """Missed modes (frequency Hz, damping) in the residual of the fit ``ev``.
 
         Parameters
@@ -154,6 +158,9 @@ class ResidualScan:
             Frequencies (Hz) already tried and rejected: no candidate within 1.5 lines.
         max_add : int
             Maximum number of candidates.
+        smooth : bool
+            Compare the trials with the noise field of second differences (module
+            notes), else with the direct field.
 
         Returns
         -------
@@ -161,7 +168,7 @@ class ResidualScan:
             ``(frequency Hz, damping ratio)``, strongest first.
         """
         Q, r = ev["lsq"].Q, ev["r"]
-        sig2 = self.noise.field(ev)
+        sig2 = self.noise.field(ev, smooth=smooth)
         prob = self.prob
         corr = None if self.grid is None else TrialCorrelations(self.grid, prob.s, prob.k,
                                                                 prob.model, (Q, r))

@@ -228,6 +228,25 @@ class NoiseTest:
                                   smooth)
         return ev[key]
 
+    def independent(self, ev) -> bool:
+        """Whether the data show noise independent between lines: the second-difference
+        field agrees with the direct one (their median ratio above one half) where the
+        residual is noise, most of the band; an FRF of windowed records whose window is
+        not recorded has its second differences far below (30 times on a hammer test).
+
+        Parameters
+        ----------
+        ev : dict
+            The fit (:meth:`PoleProblem.evaluate`).
+
+        Returns
+        -------
+        bool
+        """
+        direct = self.field(ev)
+        ratio = self.field(ev, smooth=True) / np.maximum(direct, 1e-300)
+        return bool(np.median(ratio[direct > 0]) > 0.5)
+
     def threshold(self, s):
         """Noise threshold of a pole's cost change from per-column variances ``s`` (.., k).
 

@@ -8,15 +8,20 @@ Two kinds of FRF call for different rules, and the data say which they are:
   second differences (the smooth tails of modes beyond the band are no noise), and kept
   at a damping bound (they carry a tail no line resolves); a rejected candidate is
   retried once the model has changed; close modes are looked for by the local rank of
-  the data (3.20)-(3.22, :mod:`~sdctrl.identification._zoom`); poles the last fit pushed
-  to a bound are dropped at the end;
+  the data (3.20)-(3.22, :mod:`~sdctrl.identification._zoom`) and the last pole of a
+  window where the data show modes is not removed as insignificant (a pole standing for
+  several close modes meets their residual as noise); when neither the residual scan nor
+  the zoom finds a mode, the scan is repeated against the second-difference noise field
+  (the residual of unfitted close modes, smooth over the lines around them, is no
+  noise); poles the last fit pushed to a bound are dropped at the end;
 * an FRF measured through an exponential window (``frf.exponential_tau``) has noise
   correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8 between neighbours on a
   hammer survey), which second differences and a local rank take for signal (a simulated
-  roving-hammer survey's band filled with poles, 20 for 6): there one out-of-band pole
-  per side is tried, started at the band edge and judged against the direct noise
-  field, a pole at any bound or narrower than the lines out of band is rejected, every
-  candidate is tried once, and the exact-fit floor is higher (``1e-11``).
+  roving-hammer survey's band filled with poles, 20 for 6): there the residual scan
+  meets the direct noise field only, one out-of-band pole per side is tried, started at
+  the band edge and judged against the direct noise field, a pole at any bound or
+  narrower than the lines out of band is rejected, every candidate is tried once, and
+  the exact-fit floor is higher (``1e-11``).
 
 :func:`selection_rules` makes the choice from the FRF; the record carries one field per
 rule so that the selection code reads what it applies, not why.
@@ -47,7 +52,13 @@ class SelectionRules:
     retry_rejected : bool
         A rejected candidate frequency is tried again once the model has changed.
     close_modes : bool
-        Look for close modes by the local rank of the data and a zoomed LSCF.
+        Look for close modes by the local rank of the data and a zoomed LSCF, and keep
+        the last pole of a window where the data show modes.
+    smooth_scan : bool
+        When the residual scan (direct noise field) and the zoom find nothing, repeat the
+        scan against the noise field of second differences if the data show noise
+        independent between lines (:meth:`~sdctrl.identification._noise.NoiseTest.
+        independent`: an FRF of windowed records may not record its window).
     final_prune : bool
         Drop, after the last fit, poles pushed to a bound.
     """
@@ -56,6 +67,7 @@ class SelectionRules:
     oob_search: bool = True
     retry_rejected: bool = True
     close_modes: bool = True
+    smooth_scan: bool = True
     final_prune: bool = True
 
 
@@ -63,7 +75,7 @@ class SelectionRules:
 INDEPENDENT = SelectionRules()
 #: rules of data measured through an exponential window (noise correlated between lines)
 WINDOWED = SelectionRules(floor=1e-11, oob_search=False, retry_rejected=False,
-                          close_modes=False, final_prune=False)
+                          close_modes=False, smooth_scan=False, final_prune=False)
 
 
 def selection_rules(frf) -> SelectionRules:

@@ -41,7 +41,7 @@ from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._rules import INDEPENDENT, SelectionRules
 from sdctrl.identification._search import OUT_FACTOR, search_poles
-from sdctrl.identification._zoom import zoom_candidates
+from sdctrl.identification._zoom import sole_poles, zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
 
@@ -191,8 +191,10 @@ class AutoSelection:
         f = w / (2 * np.pi)
         reasons = self._rejected(w, z, side, info, ev)
         if not reasons and weak:
-            sig = self.significance(w, z, ev, side)
-            weak = np.flatnonzero(sig < 1.0)
+            sig = self.significance(w, z, ev, side)   # held: the last pole of a window
+            held = sole_poles(self.freq, self.prob.Y, self.noise.field(ev), f, z, side == 0,
+                              (sig < 1.0) & self.rules.close_modes)   # with modes (_zoom)
+            weak = np.flatnonzero((sig < 1.0) & ~held)
             if weak.size:
                 # the weakest, and with it every clearly insignificant pole with no other
                 # pole nearby (two poles sharing one mode each look insignificant)
@@ -465,9 +467,10 @@ class AutoSelection:
             # missed in-band modes: add at residual peaks, keep the significant ones;
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
-            new = self._add_missed(state, cand) if cand else None
-            if new is None:
-                new = self._close_modes(state)
+            new = (self._add_missed(state, cand) if cand else None) or self._close_modes(state)
+            if new is None and self.rules.smooth_scan and self.noise.independent(ev):
+                cand = self.scan.candidates(ev, self.tried, smooth=True)  # 2nd differences
+                new = self._add_missed(state, cand) if cand else None
             if new is None:
                 break
             state = self.best = new

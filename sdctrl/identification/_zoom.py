@@ -34,6 +34,14 @@ judged like any other by the significance test of
 :class:`~sdctrl.identification._selection.AutoSelection` after their fit (whose noise no
 longer holds their own residual).
 
+The same count keeps a pole that stands for several close modes: judged against a noise
+field that holds the residual of the modes it does not fit, such a pole can look
+insignificant (the cluster of the testbed family fitted by one pole at 1% noise, 0.97
+times its threshold: removed, the cluster was lost, 1 of 5 modes found).  An in-band
+pole alone in its window, where the data show at least one mode (a local rank of two or
+more: one mode and the smooth contribution of those outside), is not removed as
+insignificant (:func:`sole_poles`).
+
 Internal module: the functions trust their inputs (validated by ``identify``).
 """
 
@@ -45,7 +53,8 @@ import numpy as np
 
 from sdctrl.identification._lscf import lscf_poles, principal_responses, stable_poles
 
-__all__ = ["ZoomWindow", "local_rank", "mp_median", "windows", "zoom_candidates"]
+__all__ = ["ZoomWindow", "local_rank", "mp_median", "sole_poles", "windows",
+           "zoom_candidates"]
 
 #: half-width of a window in lines, and in half-power bandwidths ``zeta f`` of its pole
 HALF_LINES, HALF_BANDWIDTHS = 20, 5
@@ -171,6 +180,37 @@ def local_rank(Y, sig2, lines, margin: float = 2.0) -> int:
     sigma2 = float(np.median(s2)) / (n * mp_median(m / n))
     edge = sigma2 * (np.sqrt(m) + np.sqrt(n)) ** 2
     return int(np.count_nonzero(s2 > margin * edge))
+
+
+def sole_poles(freq, Y, sig2, f_poles, z_poles, in_band, check) -> np.ndarray:
+    """Which in-band poles stand alone in a window where the data show modes (module
+    notes): the last pole of a window is not removed as insignificant.
+
+    Parameters
+    ----------
+    freq : ndarray, shape (nf,)
+        Lines of the band (Hz).
+    Y : ndarray, shape (2 nf, k)
+        Stacked data of the pole search.
+    sig2 : ndarray, shape (nf, k)
+        Noise field of the current fit.
+    f_poles, z_poles : ndarray, shape (n,)
+        Frequencies (Hz) and damping ratios of the poles.
+    in_band, check : ndarray of bool, shape (n,)
+        The in-band poles (the only ones a window counts), and the poles to check.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True for a checked in-band pole alone in its window (:func:`windows`, at least
+        12 lines) whose local rank (:func:`local_rank`) is two or more.
+    """
+    out = np.zeros(f_poles.size, bool)
+    for j in np.flatnonzero(check & in_band):
+        win = windows(freq, f_poles[j:j + 1], z_poles[j:j + 1], f_poles[in_band])[0]
+        out[j] = (win.poles.size == 1 and win.lines.size >= 12
+                  and local_rank(Y, sig2, win.lines) >= 2)
+    return out
 
 
 def zoom_candidates(freq, Y, sig2, f_poles, z_poles, zeta_max: float, rejected=()):

@@ -1,0 +1,39 @@
+"""Which noise field the residual scan may use (issue 22): second differences of the
+residual measure the noise only when it is independent between lines.  The check
+(``NoiseTest.independent``) on a single mode with known noise: independent noise passes,
+the same noise correlated between neighbouring lines as an unrecorded window makes it
+(``c_1 = 0.8``) does not; it depends on neither the noise level nor the data's scale.
+"""
+
+import numpy as np
+import pytest
+
+from sdctrl.identification._noise import NoiseTest
+from sdctrl.identification._residues import stack
+from sdctrl.identification._search import PoleProblem
+
+
+def _independent(noise, c1, scale=1.0, seed=0):
+    """NoiseTest.independent on one mode at the exact pole, 4 x 3 channels, 300 lines, with
+    relative noise of lag-one correlation ``c1`` between lines (first-order recursion)."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(seed)
+    f = np.linspace(5.0, 15.0, 300)
+    s = 2j * np.pi * f
+    lam = 2 * np.pi * 10.0 * (-0.01 + 1j * np.sqrt(1 - 0.01**2))
+    R = rng.standard_normal((4, 1)) @ rng.standard_normal((1, 3))
+    H = (R[None] / (s - lam)[:, None, None] + R[None] / (s - np.conj(lam))[:, None, None])
+    e = (rng.standard_normal((400, 4, 3)) + 1j * rng.standard_normal((400, 4, 3))) / np.sqrt(2)
+    n = lfilter([np.sqrt(1 - c1**2)], [1.0, -c1], e, axis=0)[100:]     # unit variance
+    Hn = scale * H * (1 + noise * n)
+    prob = PoleProblem(stack(Hn.reshape(f.size, -1)), s, 0, "complex", (True, True))
+    w, z = np.array([abs(lam)]), np.array([0.01])
+    ev = prob.evaluate(np.concatenate([np.log(w), np.log(z)]))
+    return NoiseTest(prob, 2.0).independent(ev)
+
+
+@pytest.mark.parametrize("noise,scale", [(0.01, 1.0), (0.1, 1.0), (0.01, 1e-9)])
+def test_independent_noise_passes_and_correlated_noise_does_not(noise, scale):
+    assert _independent(noise, 0.0, scale)
+    assert not _independent(noise, 0.8, scale)
