@@ -22,24 +22,11 @@ __all__ = ["fit_task"]
 
 #: the resonator's fit starts on at most this many lines (every k-th)
 PRE_FIT_LINES = 200
-#: Gauss-Newton steps of a rank-1 size fit, and the change of ``log(base + size)`` it stops at
-GN_STEPS, GN_XTOL = 8, 1e-7
 
 
 def _log_q(q):
     """``Log(q)`` with the magnitude floored as :func:`complex_residual` does."""
     return complex_residual(q, np.ones(1))
-
-
-def _bracket(t):
-    """``(u0, a, b)``: the screen's best grid point and its neighbours in ``u = log(base +
-    size)`` (the bounds beyond the grid's ends)."""
-    u = np.sort(np.log(t["base"] + t["grid"]))
-    u0 = np.log(t["base"] + t["grid"][t["best"]])
-    j = int(np.searchsorted(u, u0))
-    lo = np.log(t["base"] + t["bounds"][0])
-    hi = np.log(t["base"] + t["bounds"][1])
-    return u0, (u[j - 1] if j > 0 else lo), (u[j + 1] if j + 1 < u.size else hi)
 
 
 def _fit_size(t, resid):
@@ -49,74 +36,14 @@ def _fit_size(t, resid):
         r = resid(np.exp(u) - t["base"])
         return float(np.mean(r.real**2 + r.imag**2))
 
-    _u0, a, b = _bracket(t)
+    u = np.sort(np.log(t["base"] + t["grid"]))
+    j = int(np.searchsorted(u, np.log(t["base"] + t["grid"][t["best"]])))
+    lo = np.log(t["base"] + t["bounds"][0])
+    hi = np.log(t["base"] + t["bounds"][1])
+    a = u[j - 1] if j > 0 else lo
+    b = u[j + 1] if j + 1 < u.size else hi
     res = minimize_scalar(c1, bounds=(a, b), method="bounded", options={"xatol": 1e-6})
     return float(res.fun), float(np.exp(res.x) - t["base"]), np.nan, np.nan
-
-
-def _gauss_newton_size(t, evaluate):
-    """The size fit of :func:`_fit_size` by Gauss-Newton on ``u = log(base + size)`` with the
-    exact derivative of the residual (``evaluate(size) -> (r, dr/dsize as a callable)``),
-    from the screen's best grid point, kept in the same bracket, each step halved until the
-    cost decreases: a few evaluations where the bracketing search takes about twenty.  None
-    when it does not converge in :data:`GN_STEPS` steps (the bracketing search then runs)."""
-    u0, a, b = _bracket(t)
-    base = t["base"]
-
-    def at(u):
-        r, dr = evaluate(np.exp(u) - base)
-        return r, float(np.mean(r.real**2 + r.imag**2)), dr
-
-    u = float(np.clip(u0, a, b))
-    r, c, dr = at(u)
-    prev = None
-    for _ in range(GN_STEPS):
-        Jr = np.exp(u) * dr()                                            # dr/du
-        grad = float(np.sum((Jr.conj() * r).real))
-        step = -grad / max(float(np.sum(Jr.real**2 + Jr.imag**2)), 1e-300)
-        if prev is not None and (grad - prev[1]) * (u - prev[0]) > 0:
-            # secant on the gradient: superlinear where a large residual slows Gauss-Newton
-            step = -grad * (u - prev[0]) / (grad - prev[1])
-        prev = (u, grad)
-        for _half in range(30):
-            un = float(np.clip(u + step, a, b))
-            rn, cn, drn = at(un)
-            if cn <= c:
-                break
-            step *= 0.5
-        else:
-            return c, float(np.exp(u) - base), np.nan, np.nan        # no descent: at a minimum
-        moved = abs(un - u)
-        u, r, c, dr = un, rn, cn, drn
-        if moved < GN_XTOL:
-            return c, float(np.exp(u) - base), np.nan, np.nan
-    return None
-
-
-def _rank1(A, P, g11, d1):
-    """``size -> (r, dr/dsize)`` of a rank-1 change: ``q = A - g P``, ``g = D / (1 + D
-    G_kk)``, ``D = size d1``, ``dr/dsize = -(d1 / (1 + D G_kk)^2) P / q``."""
-    def evaluate(size):
-        D = size * d1
-        den = 1.0 + D * g11
-        q = A - (D / den)[:, None, None] * P
-        return _log_q(q), lambda: (-d1 / den**2)[:, None, None] * P / q
-    return evaluate
-
-
-def _rank_k(H0, Hd, Gyk, Gkk, Gku, d1):
-    """``size -> (r, dr/dsize)`` of a rank-k change (Woodbury, ``D = size d1``):
-    ``dH/dD = -G_yk (I + D G_kk)^-2 G_ku``."""
-    eye = np.eye(Gkk.shape[1])
-
-    def evaluate(size):
-        D = (size * d1)[:, None, None]
-        M = eye + D * Gkk
-        X = np.linalg.solve(M, Gku)                                     # (nf, k, na)
-        H = H0 - D * (Gyk @ X)
-        return (complex_residual(H, Hd),
-                lambda: -d1[:, None, None] * (Gyk @ np.linalg.solve(M, X)) / H)
-    return evaluate
 
 
 def _resonator_D(s, x):
@@ -192,16 +119,12 @@ def fit_task(t) -> tuple:
             g11 = Gkk[:, 0, 0]
             if kind == "resonator":
                 return _fit_resonator(t, A, P, g11)
-            evaluate = _rank1(A, P, g11, dynamic_stiffness(kind, s, 1.0))
 
             def resid(size):
                 D = dynamic_stiffness(kind, s, size)
                 return _log_q(A - (D / (1.0 + D * g11))[:, None, None] * P)
         else:
-            evaluate = _rank_k(H0, Hd, Gyk, Gkk, Gku, dynamic_stiffness(kind, s, 1.0))
-
             def resid(size):
                 D = dynamic_stiffness(kind, s, size)
                 return complex_residual(woodbury(H0, Gyk, Gkk, Gku, D), Hd)
-        out = _gauss_newton_size(t, evaluate)
-        return out if out is not None else _fit_size(t, resid)
+        return _fit_size(t, resid)
