@@ -18,6 +18,24 @@ Run::
              test and updated model, 31 x 6 x 1000 lines), warm.
 ``demo``     ``sdctrl demo`` in a subprocess (wall and CPU seconds).  Target: under 30 s.
 
+Figures (branch dspeed, 2026-11-26, on this 2-core machine shared with four other
+developers: load average 9-13 during every run, so that CPU seconds are inflated too; before =
+main at babe7f9, after = dspeed, run back to back in separate processes under the same load):
+
+==============================================  ===============  ===============
+case                                            before (CPU s)   after (CPU s)
+==============================================  ===============  ===============
+truss 31x6x600 warm, noise-free (2 steps)       14.2 / 14.8      10.8 / 15.0
+truss 31x6x600 warm, 1% noise (2 steps)         13.2 / 13.5      12.3 / 13.2
+demo diagnosis step, 31x6x1000 (3 steps)        43.2 (load 13)   35.4 (load 9)
+==============================================  ===============  ===============
+
+The truss case is unchanged within the load's scatter (no refit there: one effect); the
+demo's diagnosis gains from the complex-mode evaluation of its coupled models (each an
+``n x n`` solve per line before) in the joint refit and the effects' finite differences.
+The rest of the time is the screen's single-precision kernel (about half, near numpy's
+speed for its passes: ``log`` alone is 3 ns per entry) and the finalists' fits.
+
 Every figure is given as CPU seconds (``time.process_time``, BLAS limited to one thread by
 threadpoolctl) and wall seconds: on a machine shared with other jobs the wall time follows
 the load, the CPU time much less.  Not part of the unit tests.
