@@ -27,7 +27,7 @@ case                                            before (CPU s)   after (CPU s)
 ==============================================  ===============  ===============
 truss 31x6x600 warm, noise-free (2 steps)       14.2 / 14.8      10.8 / 15.0
 truss 31x6x600 warm, 1% noise (2 steps)         13.2 / 13.5      12.3 / 13.2
-demo diagnosis step, 31x6x1000 (3 steps)        43.2 (load 13)   35.4 (load 9)
+demo diagnosis step, 31x6x1000 (3 steps)        42.9 (load 9.7)  35.4 (load 9.1)
 ==============================================  ===============  ===============
 
 The truss case is unchanged within the load's scatter (no refit there: one effect); the
