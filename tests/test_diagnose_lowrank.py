@@ -8,13 +8,16 @@ candidate's load a dense column on every node translation, ``Psi`` on all of the
 from __future__ import annotations
 
 import itertools
+import warnings
 
 import numpy as np
 import pytest
 
 import sdctrl as sd
 from sdctrl.diagnosis._candidate_scan import _single, _transfers, setup
-from sdctrl.diagnosis._candidates import _pairs, candidate_groups
+from sdctrl.diagnosis._candidates import _beam_matrices, _pairs, candidate_groups
+from sdctrl.diagnosis._finalist_fit import fit_task
+from sdctrl.diagnosis._lowrank import dynamic_stiffness, screen_chunk, woodbury
 from sdctrl.diagnosis._placed_data import place
 
 RTOL = 1e-8
@@ -107,3 +110,78 @@ def test_kd_tree_pairs_equal_the_brute_force_pairs(scan):
              if frozenset((a, b)) not in seen
              and 0 < np.linalg.norm(np.subtract(fe.nodes[a], fe.nodes[b])) <= 1.5 * L]
     assert others == brute and len(others) > 0
+
+
+def test_beam_member_blocks_equal_the_assembled_element():
+    """The beam candidates' element blocks, computed per group at once, are the element
+    stiffness the FE model assembles for each beam on its own (same DOFs, same values)."""
+    fe = sd.testbeds.structure("plate").fe()
+    blocks = _beam_matrices(fe.assembly)
+    beams = fe.members(kind="beam")
+    assert len(beams) > 10
+    for pair in beams:
+        Ke = fe.member_matrices(elements=[pair])[0].tocsr()
+        rows = np.unique(Ke.nonzero()[0])
+        got_rows, got = blocks[frozenset(pair)]
+        assert np.array_equal(got_rows, rows)                # none: clamped at both ends
+        assert np.abs(got - Ke[rows][:, rows].toarray()).max(initial=0.0) <= \
+            1e-12 * np.abs(got).max(initial=0.0)
+    assert sum(blocks[frozenset(p)][0].size == 12 for p in beams) > 10
+
+
+def _planted_task(scan, name, kind, c, size):
+    """A finalist's fit task on data that are the model with candidate ``c`` of ``name``
+    changed by ``size`` exactly (Woodbury on all the lines): the fit's closed-form truth."""
+    fe, nm, placed, (_, groups, _), S, _ = scan
+    (Gyk, Gkk, Gku), _ = _single(S, placed, groups[name], c)
+    H0 = placed.response(nm)
+    Hd = woodbury(H0, Gyk, Gkk, Gku, dynamic_stiffness(kind, placed.s, size))
+    grid = size * 10.0 ** np.linspace(-1.0, 1.0, 8)
+    return {"H0": H0, "Hd": Hd, "s": placed.s, "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
+            "kind": kind, "base": 0.0, "bounds": (1e-3 * size, 1e3 * size), "grid": grid,
+            "best": 4}                               # the screen's best: 1.39 x the truth
+
+
+@pytest.mark.parametrize("name, kind, size", [("pairs", "added_damper", 35.0),
+                                              ("pairs", "stiffness_change", 4e4),
+                                              ("nodes", "mass_change", 0.01)])
+def test_finalist_fit_recovers_an_exact_change(scan, name, kind, size):
+    """The bounded search on a rank-1 (pair) and a rank-3 (node) change: the planted size
+    to 1e-5 (its tolerance is 1e-6 on ``log size``) and a cost a millionth of the one at the
+    screen's best grid point (1.39 times the truth)."""
+    c = 3
+    t = _planted_task(scan, name, kind, c, size)
+    cost_, got, _, _ = fit_task(t)
+    assert got == pytest.approx(size, rel=1e-5)
+    H = woodbury(t["H0"], t["Gyk"], t["Gkk"], t["Gku"],
+                 dynamic_stiffness(kind, t["s"], t["grid"][4]))
+    start = np.mean(np.abs(np.log(H / t["Hd"])) ** 2)
+    assert cost_ < 1e-6 * start
+
+
+def test_screen_costs_and_overflow_without_warnings(scan):
+    """The single-precision screen: its cost is the log-magnitude logLS of the Woodbury
+    response (to single precision); sizes that overflow single precision cost +inf (never
+    NaN, never ranked) and raise no RuntimeWarning."""
+    fe, nm, placed, (_, groups, _), S, _ = scan
+    g = groups["pairs"]
+    s = placed.s
+    Gyk, Gkk, Gku = _transfers(S, placed, s, g)
+    H0 = placed.response(nm)
+    Hd = woodbury(H0, Gyk[80], Gkk[80], Gku[80], dynamic_stiffness("added_damper", s, 500.0))
+    sizes = np.array([[100.0, 500.0, 1e37, 3e38]] * 2)
+    task = {"A": (H0 / Hd).astype(np.complex64), "iHd": (1 / Hd).astype(np.complex64),
+            "s": s, "kind": "added_damper", "sizes": sizes, "extra": None,
+            "Gyk": Gyk[[80, 5]].astype(np.complex64), "Gkk": Gkk[[80, 5]].astype(np.complex64),
+            "Gku": Gku[[80, 5]].astype(np.complex64)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = screen_chunk(task)
+    assert not np.any(np.isnan(out)) and np.all(out[:, 3] == np.inf)
+    for i, c in enumerate((80, 5)):
+        for j in range(2):
+            D = dynamic_stiffness("added_damper", s, sizes[i, j])
+            H = woodbury(H0, Gyk[c], Gkk[c], Gku[c], D)
+            want = np.mean(np.log(np.abs(H / Hd) ** 2) ** 2) / 4
+            assert out[i, j] == pytest.approx(want, rel=1e-3, abs=1e-9)
+    assert out[0, 1] < 1e-6 * out[0, 0]                 # the planted size: float32 round-off

@@ -268,15 +268,15 @@ def _beam_members(fe, dof_idx):
         return dof_idx, None
     beams = fe.members(kind="beam")
     ax = _axial_stiffness(fe)
+    mats = _beam_matrices(fe.assembly)
     pos = {int(d): i for i, d in enumerate(dof_idx)}
     extra, locs, idx, val = [], [], [], []
     for pair in beams:
-        Ke = fe.member_matrices(elements=[pair])[0].tocsr()
-        rows = np.unique(Ke.nonzero()[0])
+        rows, Ke = mats.get(frozenset(pair), (np.zeros(0, int), None))
         kax = ax.get(frozenset(pair), 0.0)
         if rows.size == 0 or not kax > 0:
             continue                                   # clamped at both ends
-        d, U = np.linalg.eigh(Ke[rows][:, rows].toarray())
+        d, U = np.linalg.eigh(Ke)
         keep = d > 1e-9 * d.max()
         for r in rows:
             if int(r) not in pos:
@@ -295,6 +295,43 @@ def _beam_members(fe, dof_idx):
         I[c, :len(i)] = i
         V[c, :v.shape[0], :v.shape[1]] = v
     return np.r_[dof_idx, np.asarray(extra, int)], Group("members", tuple(locs), I, V)
+
+
+def _beam_matrices(A) -> dict:
+    """``{pair: (free DOFs, K_e on them)}`` of every beam of the assembly ``A``: the element
+    matrices of each group of beams computed at once (as the assembly does), those of a pair
+    of nodes joined by several beams summed; the DOFs are the element's unconstrained ones
+    with a non-zero row, in increasing order (as ``fe.member_matrices(elements=[pair])``
+    gives them, without one sparse assembly per element)."""
+    from sdctrl.fe._elements import member_matrices
+
+    out = {}
+    for (kind, mat, sec, ori), conn in A.groups:
+        if kind != "beam" or not len(conn):
+            continue
+        Ke, _Me = member_matrices(kind, A.materials[mat], A.sections[sec], mat, sec, ori,
+                                  A.xyz[conn[:, 0]], A.xyz[conn[:, 1]], A.lumped)
+        gi = np.hstack([A.gidx[conn[:, 0], :6], A.gidx[conn[:, 1], :6]])
+        for (a, b), g, K in zip(conn, gi, Ke):
+            key = frozenset((A.names[a], A.names[b]))
+            ok = np.flatnonzero(g >= 0)
+            ok = ok[np.argsort(g[ok], kind="stable")]
+            blk = (g[ok], K[np.ix_(ok, ok)])
+            out[key] = _sum_blocks(out[key], blk) if key in out else blk
+    for key, (rows, K) in out.items():
+        nz = np.any(K != 0, axis=1)
+        out[key] = (rows[nz].astype(int), K[np.ix_(nz, nz)])
+    return out
+
+
+def _sum_blocks(x, y):
+    """Sum of two symmetric blocks ``(sorted DOFs, matrix)`` on the union of their DOFs."""
+    rows = np.union1d(x[0], y[0])
+    K = np.zeros((rows.size, rows.size))
+    for r, k in (x, y):
+        at = np.searchsorted(rows, r)
+        K[np.ix_(at, at)] += k
+    return rows, K
 
 
 def _fam(kind, group, keep, grid, base, lo, hi, reference=None):

@@ -95,7 +95,7 @@ def joint_std(props, model, placed, placed0, sigma2) -> list:
             for (setter, _v, _g), xi in zip(coords[i], x[owner == i]):
                 setter(q["payload"], xi)
             m = apply_effect(m, q, placed)
-        return placed0.response(m)
+        return placed0.fast_response(m)
 
     cols = []
     for i in range(x0.size):

@@ -115,7 +115,8 @@ def refit(model, props, placed):
         return out
 
     def resid(x):
-        r = complex_residual(placed.response(applied(model, build(x), placed)), placed.Hd)
+        r = complex_residual(placed.fast_response(applied(model, build(x), placed)),
+                             placed.Hd)
         return np.r_[r.real.ravel(), r.imag.ravel()]
 
     scale = np.where(x0 != 0, np.abs(x0), 1.0)

@@ -312,12 +312,13 @@ def _accepted(best, J, J0, sigma2) -> bool:
                 and gain >= MIN_SHARE * max(J0 - sigma2, 0.0))
 
 
-def _step(current, placed0, fe, cand, executor, progress, physical):
-    """Proposals fitted to the residual of the current model."""
+def _step(current, placed0, fe, cand, executor, progress, physical, H=None):
+    """Proposals fitted to the residual of the current model (``H`` its response on
+    ``placed0`` when already computed)."""
     inner, tau = ((current.model, current.tau) if isinstance(current, DelayedModel)
                   else (current, 0.0))
     placed = placed0.undelayed(tau)
-    Hin = placed.response(inner)
+    Hin = H if H is not None and tau == 0.0 and inner is current else placed.response(inner)
     S = setup(inner, fe, placed, cand) if physical else None
     return _proposals(inner, placed, Hin, S, executor, progress)
 
@@ -327,9 +328,10 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
     t0 = time.perf_counter()
     inner0 = model.model if isinstance(model, DelayedModel) else model
     placed0 = place(inner0, frf, band)
-    J0 = J = cost(placed0.response(model), placed0.Hd)
+    H = placed0.response(model)               # the current model's response, computed once
+    J0 = J = cost(H, placed0.Hd)
     sigma2 = float(noise) if noise is not None else noise_level(
-        complex_residual(placed0.response(model), placed0.Hd))
+        complex_residual(H, placed0.Hd))
     cand = candidate_groups(fe, reach) if physical else None
     N = placed0.n_entries
     current, accepted, errors, steps, times = model, [], [], [], []
@@ -338,7 +340,7 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
             break
         ts = time.perf_counter()
         props = _ranked(_step(current, placed0, fe, cand, executor, progress,
-                              physical), J, sigma2, N, placed0.freq)
+                              physical, H), J, sigma2, N, placed0.freq)
         best = props[0]
         ok = _accepted(best, J, J0, sigma2)
         steps.append({"accepted": ok, "candidates": [_summary(p) for p in
@@ -351,8 +353,8 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
             trial, new = refit(model, trial, placed0)
         else:
             new = apply_effect(current, best, placed0)
-        H = placed0.response(new)
-        J_new = cost(H, placed0.Hd)
+        H_new = placed0.response(new)
+        J_new = cost(H_new, placed0.Hd)
         times.append(time.perf_counter() - ts)
         if not J_new < J:
             warnings.warn(f"diagnose: the corrected model does not reduce the error "
@@ -360,7 +362,7 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
                           "stopping", RuntimeWarning, stacklevel=2)
             steps[-1]["accepted"] = False
             break
-        accepted, current, J = trial, new, J_new
+        accepted, current, J, H = trial, new, J_new, H_new
         errors.append(J_new)
         if noise is None:
             sigma2 = min(sigma2, noise_level(complex_residual(H, placed0.Hd)))

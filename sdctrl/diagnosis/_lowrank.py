@@ -408,7 +408,9 @@ def screen_chunk(task) -> np.ndarray:
     ndarray, shape (nc, m)
         Mean squared log-magnitude residual of each candidate at each size.
     """
-    with single_thread():
+    # single precision: a size far off the candidate's scale may overflow or divide by
+    # zero; such a point costs +inf (it never ranks), and no warning reaches the user
+    with single_thread(), np.errstate(all="ignore"):
         A, iHd, s = task["A"], task["iHd"], task["s"]
         Gyk, Gkk, Gku = task["Gyk"], task["Gkk"], task["Gku"]
         sizes = task["sizes"]
@@ -416,4 +418,5 @@ def screen_chunk(task) -> np.ndarray:
         out = np.empty(sizes.shape)
         kernel = _screen_rank1 if Gkk.shape[-1] == 1 else _screen_rank_k
         kernel(A, iHd, D, Gyk, Gkk, Gku, out)
+        out[~np.isfinite(out)] = np.inf
         return out
