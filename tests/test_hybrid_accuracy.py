@@ -104,8 +104,8 @@ def test_nominal_hybrid_no_less_accurate_than_the_identified_model(bed):
     w2 = np.diag(h.Omega)[r]
     np.testing.assert_allclose((h.cphi[:, r] - h.sensor_c @ h.shapes[:, r]) @ (h.phib[r].T
                                / w2).T, E, atol=1e-9 * np.abs(E).max())
-    # (the default, residual="auto", keeps the test's residual dynamics, E and F here:
-    # "tested"; F realised exactly by rigid-body modes, 2.24, as in test_hybrid_tested_io,
+    # (a "tested" hybrid -- what residual="auto" chooses here -- keeps the test's residual
+    # dynamics, E and F; F realised exactly by rigid-body modes, 2.24, as in test_hybrid_tested_io,
     # the improper residual terms through the correction filter 2.19-2.20: measured 6e-6)
     tested = h.construction.residual.representation == "tested"
     G = h.to_statespace("acceleration", rigid_body=h.F is not None)
@@ -290,7 +290,7 @@ def test_strut_plant_closed_with_python_control_matches_with_feedback(bed):
     outs = [closed.output_labels.index(signal_name(o)) for o in SE]
     r_pc = rms(closed[outs, list(range(len(SH)))], BAND)
     r_fb = rms(h.with_feedback(s, s.T, kp=kp, kv=kv).to_statespace("displacement"), BAND)
-    # 1e-5: the default hybrid ("tested") carries F and the residual block, realised by the
+    # 1e-5: a "tested" hybrid (residual="auto") carries F and the residual block, realised by the
     # correction filter (2.19)-(2.20) with the strut channel padded in (measured 1.4e-6)
     np.testing.assert_allclose(r_pc, r_fb, rtol=1e-5)
 

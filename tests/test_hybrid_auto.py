@@ -65,7 +65,7 @@ def test_io_kept_is_the_test_without_the_channels():
 def test_auto_is_the_chosen_candidate_and_follows_its_rule():
     st, wrong, nm = _plate()
     SH, SE = list(st.shakers), list(st.sensors)
-    h = _hybrid(wrong, nm, SE, SH)
+    h = _hybrid(wrong, nm, SE, SH, residual="auto")
     r = h.construction.residual
     assert r.chosen_by == "leave-one-actuator-out" and r.held_out.tolist() == [0, 1]
     assert set(r.loo_scores) == {"identified", "tested", "fe"}
@@ -87,7 +87,7 @@ def test_one_actuator_leaves_one_sensor_out_and_the_scores_are_the_held_out_erro
     st, wrong, nm = _plate()
     SH, SE = list(st.shakers), list(st.sensors)
     nm1 = io_kept(nm, actuators=[0])
-    h = _hybrid(wrong, nm1, SE, SH[:1])
+    h = _hybrid(wrong, nm1, SE, SH[:1], residual="auto")
     r = h.construction.residual
     folds = r.held_out.tolist()
     assert r.chosen_by == "leave-one-sensor-out"
@@ -108,7 +108,8 @@ def test_one_actuator_leaves_one_sensor_out_and_the_scores_are_the_held_out_erro
 def test_one_sensor_one_actuator_keeps_the_closest_to_the_test():
     st, wrong, nm = _plate()
     SH, SE = list(st.shakers), list(st.sensors)
-    h = _hybrid(wrong, io_kept(nm, sensors=[0], actuators=[0]), SE[:1], SH[:1])
+    h = _hybrid(wrong, io_kept(nm, sensors=[0], actuators=[0]), SE[:1], SH[:1],
+                residual="auto")
     r = h.construction.residual
     assert r.chosen_by == "nominal" and r.held_out.size == 0 and r.loo_scores == {}
     assert r.representation == min(r.nominal_scores, key=r.nominal_scores.get) == "tested"
@@ -116,7 +117,8 @@ def test_one_sensor_one_actuator_keeps_the_closest_to_the_test():
 
 def test_auto_without_residual_terms_chooses_between_identified_and_fe():
     st, wrong, nm = _plate()
-    h = _hybrid(wrong, nm.replace(E=None), list(st.sensors), list(st.shakers))
+    h = _hybrid(wrong, nm.replace(E=None), list(st.sensors), list(st.shakers),
+                residual="auto")
     r = h.construction.residual
     assert set(r.loo_scores) == {"identified", "fe"}
     assert r.representation in ("identified", "fe")
