@@ -5,12 +5,13 @@ D-strut design) against the truth and the deliberately wrong FE model
 (:mod:`family_struts`).  Each member's figures are locked (measured / 1.5 for the ratios,
 x1.5 for the errors), so that no change trades one structure for another; the issue's
 targets (nominal no worse than the normal-mode model, >= 12x, >= 3x, RMS within 2%) are
-asserted where the member reaches them and the gap is stated where it does not.  Both
-treatments of the tested I/O are locked: the default (``residual="identified"``: FE modes
-and fitted residual terms) and ``residual="tested"`` (the test's own residual dynamics, E
-and F kept there).
+asserted where the member reaches them and the gap is stated where it does not.  The
+hybrids are ``residual="auto"``: the representation chosen by leave-one-out
+prediction on the test's own channels (:mod:`sdctrl.hybrids._auto`), its choice and the
+scores that made it asserted per member.
 """
 
+import functools
 import warnings
 
 import numpy as np
@@ -18,65 +19,58 @@ import pytest
 
 import sdctrl as sd
 from family_struts import figures
+from sdctrl.hybrids._auto import TIE
 
-#: measured figures per (member, noise): logLS of the nominal hybrid and of the identified
-#: normal-mode model at the tested I/O; wrong-FE/hybrid logLS ratios of a D-strut, a broken
-#: strut and an untested shaker; relative error of the D-strut design's closed-loop band RMS
-#: by the hybrid and by the wrong FE (seed 1, 400 lines; normal modes keep the out-of-band
-#: poles as residual dynamics; FE/test pairing within a factor 2 in frequency)
+#: measured figures per (member, noise), hybrid ``residual="auto"``: logLS of the
+#: nominal hybrid and of the identified normal-mode model at the tested I/O; wrong-FE/hybrid
+#: logLS ratios of a D-strut, a broken strut and an untested shaker; relative error of the
+#: D-strut design's closed-loop band RMS by the hybrid and by the wrong FE (seed 1, 400 lines;
+#: normal modes keep the out-of-band poles as residual dynamics; FE/test pairing within a
+#: factor 2 in frequency)
 MEASURED = {
-    ('truss', 0.0): (0.01133, 0.0076, 128.58, 7.81, 24.94, 0.0190, 0.0473),
-    ('truss', 0.01): (0.0166, 0.01354, 106.61, 7.77, 23.79, 0.0188, 0.0473),
-    ('truss_high', 0.0): (0.02616, 0.00276, 56.61, 5.33, 20.19, 0.0295, 0.1147),
-    ('truss_high', 0.01): (0.0282, 0.00405, 54.69, 5.29, 19.44, 0.0293, 0.1147),
-    ('ladder', 0.0): (0.01606, 0.01135, 96.89, 30.96, 43.51, 0.0001, 0.0443),
-    ('ladder', 0.01): (0.0173, 0.01248, 89.83, 30.30, 27.18, 0.0002, 0.0443),
-    ('plate', 0.0): (0.02964, 0.00476, 33.94, 9.33, 34.48, 0.0006, 0.0255),
-    ('plate', 0.01): (0.03113, 0.00459, 31.80, 9.17, 33.46, 0.0009, 0.0255),
-    # the cluster since identification finds its close blade modes (before: noise-free
-    # 0.533, 1.017, 0.40, 0.41, 0.07, 0.0007; 1%: 0.491, 1.665, 0.43, 0.45, 0.10, 0.468)
-    ('cluster', 0.0): (0.02231, 0.01062, 9.53, 7.55, 0.08, 0.0002, 0.1113),
-    ('cluster', 0.01): (0.9181, 0.84857, 0.23, 0.24, 0.10, 0.0030, 0.1113),
-}
-#: the same figures with ``residual="tested"`` (the test's residual dynamics, E and F kept
-#: at the tested I/O, :mod:`sdctrl.hybrids._tested_io`)
-MEASURED_TESTED = {
-    ('truss', 0.0): (0.00755, 0.0076, 127.75, 7.41, 24.94, 0.0163, 0.0473),
+    ('truss', 0.0): (0.0048, 0.0048, 139.93, 7.42, 24.94, 0.0164, 0.0473),
     ('truss', 0.01): (0.0135, 0.01354, 112.05, 7.34, 23.79, 0.0162, 0.0473),
-    ('truss_high', 0.0): (0.00276, 0.00276, 130.64, 5.34, 20.19, 0.0252, 0.1147),
+    ('truss_high', 0.0): (0.00088, 0.00088, 130.77, 5.33, 20.19, 0.0253, 0.1147),
     ('truss_high', 0.01): (0.0041, 0.00405, 123.38, 5.31, 19.44, 0.0251, 0.1147),
-    ('ladder', 0.0): (0.01122, 0.01135, 138.58, 34.24, 43.51, 0.0000, 0.0443),
-    ('ladder', 0.01): (0.01248, 0.01248, 124.60, 33.70, 27.18, 0.0002, 0.0443),
-    ('plate', 0.0): (0.00481, 0.00476, 202.35, 12.52, 34.48, 0.0001, 0.0255),
-    ('plate', 0.01): (0.00463, 0.00459, 210.39, 12.48, 33.46, 0.0001, 0.0255),
-    ('cluster', 0.0): (0.00932, 0.01062, 22.86, 21.59, 0.08, 0.0003, 0.1113),
-    ('cluster', 0.01): (0.8485, 0.84857, 0.25, 0.26, 0.10, 0.0026, 0.1113),
+    ('ladder', 0.0): (0.00004, 0.0, 42352.79, 46.93, 43.51, 0.0001, 0.0443),
+    ('ladder', 0.01): (0.00192, 0.00184, 807.55, 44.89, 27.18, 0.0003, 0.0443),
+    ('plate', 0.0): (0.00076, 0.00091, 1156.03, 13.12, 34.48, 0.0, 0.0255),
+    ('plate', 0.01): (0.0015, 0.00139, 644.02, 12.95, 33.46, 0.0001, 0.0255),
+    ('cluster', 0.0): (0.00035, 0.00008, 599.48, 142.38, 0.08, 0.0, 0.1113),
+    # identification misses one blade mode at 1% (10.151 Hz): its figures are locked as
+    # they come (the identification issue, not the hybrid's)
+    ('cluster', 0.01): (1.02908, 1.02822, 0.21, 0.21, 0.11, 0.0008, 0.1113),
 }
-#: where each member stands against the issue's targets (asserted where met; the gaps, locked
-#: above, are the open part of issue 22).  Default hybrid: the nominal hybrid is above the
-#: normal-mode model on every member but the cluster (1.4x-10x: its FE modes stand in for
-#: the out-of-band poles the normal-mode model keeps as identified residual dynamics);
-#: truss_high's RMS error (2.9%) short of 2%.  Since the FE/test pairing stays within a
-#: factor 2 in frequency, the ladder's D-strut went from 9.4x to 96.9x and its shaker from
-#: 4.8x to 43.5x (its 48.3 Hz test mode had been paired with a 246 Hz FE mode, MAC 0.63,
-#: leaving its own FE mode appended in band).  The cluster: since identification finds its
-#: close blade modes, noise-free D-strut 0.40x -> 9.5x, broken 0.41x -> 7.6x, RMS error
-#: 0.07% -> 0.02%; at 1% it still misses one blade mode (10.151 Hz): RMS error 47% -> 0.3%
-#: but D-strut 0.43x -> 0.23x, nominal 0.49 -> 0.92 -- locked as they come; the untested
-#: shaker 0.08x/0.10x either way
+#: the representation ``residual="auto"`` chose, per member (both noise levels, the hybrid of
+#: every shaker and that of all but the last): on every member the held-out predictions of the
+#: FE's own frequencies (``"fe"``) are worse than those of the appended modes scaled by
+#: ``kappa`` (``"identified"``, which ``"tested"`` shares away from the tested I/O), e.g.
+#: truss 0.47 / 0.19, truss_high 0.85 / 0.22, plate 0.14 / 0.05, ladder 0.064 / 0.060,
+#: cluster 0.155 / 0.114 (noise-free, all shakers); among the two equal ones the test's own
+#: residual dynamics, E and F reproduce the identified model at the tested I/O (nominal
+#: 1e-5 against 0.008-0.34 for "identified"): "tested" everywhere
+CHOSEN = {name: "tested" for name in ("truss", "truss_high", "ladder", "plate", "cluster")}
+_ALL = {(n, x) for n in CHOSEN for x in (0.0, 0.01)}
+#: where each (member, noise) stands against the issue's targets (asserted where met; the
+#: gaps, locked above, are the open part of issue 22): truss_high's RMS error 2.5% (target 2%:
+#: the strut's added damping of the 52.9 Hz mode over-predicted); the cluster's untested
+#: shaker 0.08x/0.11x (the test without that shaker identifies two of the four blade modes;
+#: the other two come from the FE, and at the sensors of the other blades the response is
+#: a near-cancellation of the four); at 1% the cluster's D-strut and broken strut 0.21x
+#: (a blade mode missed by identification)
 TARGETS = {
-    "dstrut": {"truss", "truss_high", "ladder", "plate"},
-    "broken": {"truss", "truss_high", "ladder", "plate"},
-    "shaker": {"truss", "truss_high", "ladder", "plate"},
-    "rms": {"truss", "ladder", "plate"},
+    "dstrut": _ALL - {("cluster", 0.01)},
+    "broken": _ALL - {("cluster", 0.01)},
+    "shaker": _ALL - {("cluster", 0.0), ("cluster", 0.01)},
+    "rms": _ALL - {("truss_high", 0.0), ("truss_high", 0.01)},
 }
-#: ``residual="tested"``: the nominal hybrid within 2% of the normal-mode model's logLS
-#: (the test's E carried by a term 30x above the band: <= 0.8% of E) where the targets
-#: above hold, truss_high's RMS error 2.5% (the strut's added damping of the 52.9 Hz mode
-#: over-predicted: 0.0090 against 0.0082, the expanded shape's strain at the bar)
-NOMINAL = {"truss", "truss_high", "ladder", "plate"}
+#: the nominal hybrid within 2% of the normal-mode model's logLS (+1e-4: the test's E carried
+#: by a term 30x above the band, <= 0.8% of E) -- all but the noise-free cluster, whose
+#: normal-mode model reaches 8e-5 and the hybrid 3.5e-4 (the E term's floor)
+NOMINAL = _ALL - {("cluster", 0.0)}
 
 
+@functools.lru_cache(maxsize=None)
 def _build(name, noise):
     st = sd.testbeds.structure(name)
     SH, SE = list(st.shakers), list(st.sensors)
@@ -86,20 +80,19 @@ def _build(name, noise):
         nm = sd.normal_modes(sd.identify(frf, progress=False), std=False)
         nm_minus = sd.normal_modes(sd.identify(frf.select(actuators=SH[:-1]), progress=False),
                                    std=False)
-        pairs = {res: (sd.hybrid(st.wrong(), nm, SE, SH, residual=res),
-                       sd.hybrid(st.wrong(), nm_minus, SE, SH[:-1], residual=res))
-                 for res in ("identified", "tested")}
-    return st, nm, pairs
+        h = sd.hybrid(st.wrong(), nm, SE, SH, residual="auto")
+        h_minus = sd.hybrid(st.wrong(), nm_minus, SE, SH[:-1], residual="auto")
+    return st, nm, h, h_minus
 
 
-def _check(got, ref, name, targets):
-    if name in targets["dstrut"]:
+def _check(got, ref, key, targets):
+    if key in targets["dstrut"]:
         assert got.dstrut >= 12
-    if name in targets["broken"]:
+    if key in targets["broken"]:
         assert got.broken >= 3
-    if name in targets["shaker"]:
+    if key in targets["shaker"]:
         assert got.shaker >= 12
-    if name in targets["rms"]:
+    if key in targets["rms"]:
         assert got.rms_hybrid <= 0.02 and got.rms_fe > got.rms_hybrid
     assert got.nominal <= 1.5 * ref[0] + 1e-4
     assert got.dstrut >= ref[2] / 1.5 and got.broken >= ref[3] / 1.5
@@ -107,29 +100,47 @@ def _check(got, ref, name, targets):
     assert got.rms_hybrid <= 1.5 * ref[5] + 1e-3
 
 
+def _check_choice(model, name, how):
+    """The recorded choice follows the rule of :func:`sdctrl.hybrids._auto.choose_residual`
+    and its scores."""
+    r = model.construction.residual
+    print(f"  {how}: {r.representation}, held-out logLS "
+          f"{ {k: round(v, 4) for k, v in r.loo_scores.items()} }, nominal "
+          f"{ {k: round(v, 5) for k, v in r.nominal_scores.items()} }")
+    assert r.chosen_by == how and r.representation == CHOSEN[name]
+    assert set(r.loo_scores) == set(r.nominal_scores) == {"identified", "tested", "fe"}
+    assert np.all(np.isfinite(list(r.loo_scores.values())))
+    low = min(r.loo_scores.values())
+    ties = [k for k, v in r.loo_scores.items() if v <= (1 + TIE) * low]
+    assert r.representation in ties
+    assert r.nominal_scores[r.representation] == min(r.nominal_scores[k] for k in ties)
+    # away from the tested I/O "tested" is "identified" (same modes): one score
+    assert r.loo_scores["tested"] == r.loo_scores["identified"]
+    # the FE's own frequencies predict the held-out channels worse than kappa-scaled ones
+    assert r.loo_scores["fe"] >= r.loo_scores["identified"]
+    assert r.held_out.size == min(6, model.na if how.endswith("actuator-out") else model.ns)
+
+
 @pytest.mark.parametrize("noise", [0.0, 0.01])
 @pytest.mark.parametrize("name", sd.testbeds.family())
 def test_hybrid_predictions_locked_per_member(name, noise):
-    st, nm, pairs = _build(name, noise)
+    st, nm, h, h_minus = _build(name, noise)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        got = figures(st, nm, *pairs["identified"])
-        tested = figures(st, nm, *pairs["tested"])
-    print(f"\n{name} {noise}: {got}\n  tested: {tested}")
-    _check(got, MEASURED[(name, noise)], name, TARGETS)
-    _check(tested, MEASURED_TESTED[(name, noise)], name, TARGETS)
-    if name in NOMINAL:                              # no worse than the normal-mode model
-        # 1e-4: the floor of the E term carried 30x above the band (the nominal hybrid was
-        # 1.3e-4 below the normal-mode model on the ladder, 0.01122 against 0.01135); with the
-        # improper parts kept in nm.residual (issue 22) nm reaches 3e-11 / 0.0018 (ladder)
-        # and 0.0014 (plate 1%), the hybrid 3.6e-5 / 0.0019 and 0.0015
-        assert tested.nominal <= 1.02 * tested.nm + 1e-4
-        assert got.nominal > tested.nominal           # the default's gap, stated above
-    h = pairs["tested"][0]
-    # the tested I/O keeps the test: nm's residual dynamics bit for bit, E, F
-    if nm.residual is not None:
-        m = nm.residual.m
-        assert np.array_equal(h.residual.poles[:m], nm.residual.poles)
-        assert np.array_equal(h.residual.residues[:m], nm.residual.residues)
-    assert (h.F is None) == (nm.F is None) and h.E is None
-    assert np.all(h.cphi[:, ~h.measured] == 0)
+        got = figures(st, nm, h, h_minus)
+    print(f"\n{name} {noise}: {got}")
+    _check_choice(h, name, "leave-one-actuator-out")
+    _check_choice(h_minus, name, "leave-one-actuator-out" if h_minus.na >= 2
+                  else "leave-one-sensor-out")
+    _check(got, MEASURED[(name, noise)], (name, noise), TARGETS)
+    if (name, noise) in NOMINAL:                              # no worse than the normal-mode model
+        # 1e-4: the floor of the E term carried 30x above the band
+        assert got.nominal <= 1.02 * got.nm + 1e-4
+    if CHOSEN[name] == "tested":
+        # the tested I/O keeps the test: nm's residual dynamics bit for bit, E, F
+        if nm.residual is not None:
+            m = nm.residual.m
+            assert np.array_equal(h.residual.poles[:m], nm.residual.poles)
+            assert np.array_equal(h.residual.residues[:m], nm.residual.residues)
+        assert (h.F is None) == (nm.F is None) and h.E is None
+        assert np.all(h.cphi[:, ~h.measured] == 0)

@@ -20,7 +20,7 @@ in :mod:`sdctrl.hybrids._hybrid_basis`; this module builds the model (5.1.1).
 from __future__ import annotations
 
 import warnings
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,7 +45,8 @@ from sdctrl.hybrids._hybrid_records import (
 )
 from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
-from sdctrl.hybrids._tested_io import TestedIO, keep_tested
+from sdctrl.hybrids._tested_io import TestedIO, keep_tested, realise_residual
+from sdctrl.hybrids._auto import choose_residual, has_tested
 
 __all__ = ["hybrid", "pairing_report"]
 
@@ -63,10 +64,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
 
     Built from an identified normal-mode model ``nm`` (as returned by
     :func:`sdctrl.normal_modes` with its default: the band's poles as normal modes, the
-    others as identified residual dynamics ``nm.residual``, which the default hybrid does
-    not carry: its appended FE modes and residual terms, fitted to ``nm``'s whole response
-    at the tested I/O, stand for them; ``residual="tested"`` keeps them there) and an FE
-    model ``fe``:
+    others as identified residual dynamics ``nm.residual``, which ``residual="identified"``
+    does not carry: its appended FE modes and residual terms, fitted to ``nm``'s whole
+    response at the tested I/O, stand for them; ``residual="tested"`` keeps them there) and
+    an FE model ``fe``:
 
     - measured modes: the identified ``Omega`` (frequencies) and ``Gamma`` (full damping
       matrix, non-proportional terms kept), shapes expanded onto all FE DOFs (4.7).  By
@@ -91,6 +92,20 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       mean measured one, no damping coupling;
     - static correction modes (2.21) of the test inputs, made consistent with those
       shapes (:func:`sdctrl.fe._static.consistent_static_modes`), critically damped (2.20);
+    - residual representation chosen from the test (``residual="auto"``; not yet the
+      default: its choice, "tested" on every member of the family, carries ``F`` and the
+      residual block, which the chunked D-strut placement and the demo's state count do
+      not take yet): each of ``"identified"``,
+      ``"tested"`` (when ``nm`` has residual terms) and ``"fe"`` below is built and scored
+      by leave-one-actuator-out prediction on the test's own channels (the model built
+      without actuator ``j`` predicts its column through ``with_io`` on the FE DOFs,
+      logLS against ``nm``'s column over the band; leave-one-sensor-out when the test has
+      one actuator; at most 6 folds); the lowest mean score wins, candidates within 2% of
+      it predict alike and the one closest to ``nm`` at the tested I/O is kept; with one
+      sensor and one actuator, that closest one (:mod:`sdctrl.hybrids._auto`).  The
+      choice and its scores are ``construction.residual`` (``representation``,
+      ``chosen_by``, ``loo_scores``, ``nominal_scores``).  The folds reuse the FE modes
+      and, holding out an actuator, the expansion prior;
     - residual terms (``residual="identified"``, default): the test's residual flexibility
       ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
       over the band -- and the modal masses of the low modes are corrected to the
@@ -146,9 +161,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         absorbed (out-of-band poles).
     expansion : {"regularised", "paired"}
         Expansion basis and fit, see above.
-    residual : {"identified", "fe", "tested"}
-        Residual terms from the test (selected against ``nm``), the thesis's FE modes, or
-        the test's own residual dynamics, ``E`` and ``F`` kept at the tested I/O (needs an
+    residual : {"auto", "identified", "fe", "tested"}
+        Chosen by leave-one-out prediction on the test's channels, or: residual terms from
+        the test (selected against ``nm``, default), the thesis's FE modes, or the
+        test's own residual dynamics, ``E`` and ``F`` kept at the tested I/O (needs an
         ``nm`` that has some: as :func:`sdctrl.normal_modes` builds it).
 
     Returns
@@ -162,7 +178,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         mask), ``n_static`` and ``construction``
         (:class:`~sdctrl.hybrids._hybrid_records.HybridConstruction`: the pairing with its
         poor pairs, the FE x test MAC, the absorbed ``nm`` modes, the expansion ``A``, the
-        mean damping, the residual variant and its scores, the kept residual flexibility).
+        mean damping, the residual representation, variant and their scores, the kept
+        residual flexibility).
 
     Raises
     ------
@@ -195,10 +212,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     if not isinstance(nm, NormalModeModel):
         raise TypeError(f"nm must be a NormalModeModel, got {type(nm).__name__}")
     for name, val, allowed in (("expansion", expansion, _EXPANSIONS),
-                               ("residual", residual, _RESIDUALS)):
+                               ("residual", residual, _RESIDUALS + ("auto",))):
         if val not in allowed:
             raise ValueError(f"{name} must be one of {allowed}, got {val!r}")
-    if residual == "tested" and nm.E is None and nm.F is None and nm.residual is None:
+    if residual == "tested" and not has_tested(nm):
         raise ValueError("residual='tested' needs an nm with residual terms (E, F or "
                          "residual dynamics, as sd.normal_modes builds it); this nm has none: "
                          "use residual='identified'")
@@ -206,48 +223,120 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
     f_id = np.sqrt(w2_id) / (2 * np.pi)
     f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
-    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi, f_fe, f_id)
-    kept = ~_absorbed(nm, mac_pairs, mac_min)
-    if c.shape[0] < kept.sum():
-        warnings.warn(f"hybrid: {c.shape[0]} sensors for {kept.sum()} measured modes; the "
-                      "expansion (4.7) needs more sensors than modes to be determined",
-                      stacklevel=2)
-    km = np.flatnonzero(kept)
-    poor = _warn_poor(km, mac_pairs, mac_min, fe_idx, f_id, f_fe)
+    setup = _Setup(fe, f_fe, phi_fe, mac_min, expansion)
     _warn_left_out(nm)
     loads, unexcited = _loads(fe, nm, b)
     if unexcited:
         warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
                       "modes are not excited by the model's inputs; give actuator_b",
                       stacklevel=2)
+    if residual != "auto":
+        return _variants(setup, nm, c, loads, (residual,), static_b=static_b)[0][residual]
+    candidates = _RESIDUALS if has_tested(nm) else ("identified", "fe")
+    full, prior = _variants(setup, nm, c, loads, candidates, static_b=static_b)
+
+    def build(nm_k, c_k, loads_k, names):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return _variants(setup, nm_k, c_k, loads_k, names,
+                             prior=prior if c_k is c else None)[0]
+
+    chosen, record = choose_residual(build, nm, c, loads, full)
+    model = full[chosen]
+    built = model.construction
+    return model.replace(construction=replace(built, residual=replace(built.residual,
+                                                                      **record)))
+
+
+@dataclass(frozen=True, eq=False)
+class _Setup:
+    """What every build of one call of :func:`hybrid` shares (the folds of
+    ``residual="auto"`` included): the FE model, its modes up to ``fmax`` (Hz, shapes), the
+    pairing threshold and the expansion."""
+
+    fe: object
+    f_fe: np.ndarray
+    phi_fe: np.ndarray
+    mac_min: float
+    expansion: str
+
+
+def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=None):
+    """The hybrid models of ``nm`` tested at ``c``/``loads``, one per residual
+    representation of ``residuals``, sharing their pairing and expansion (5.1.1, 4.7):
+    ``(dict of name to HybridModel, the expansion prior)``; ``prior`` reused when given
+    (:func:`~sdctrl.hybrids._hybrid_basis.build_basis`)."""
+    fe, f_fe, phi_fe = setup.fe, setup.f_fe, setup.phi_fe
+    w2_id = np.clip(np.diag(nm.Omega), 0, None)
+    f_id = np.sqrt(w2_id) / (2 * np.pi)
+    fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi, f_fe, f_id)
+    kept = ~_absorbed(nm, mac_pairs, setup.mac_min)
+    km = np.flatnonzero(kept)
+    if c.shape[0] < km.size:
+        warnings.warn(f"hybrid: {c.shape[0]} sensors for {km.size} measured modes; the "
+                      "expansion (4.7) needs more sensors than modes to be determined",
+                      stacklevel=3)
+    poor = _warn_poor(km, mac_pairs, setup.mac_min, fe_idx, f_id, f_fe)
     base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
-                       fe_idx[kept], expansion)
-    phib_meas = nm.phib[kept]
+                       fe_idx[kept], setup.expansion, prior)
     zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
-    parts, report = select_residual(nm, kept, base, c, phib_meas, loads, zeta_mean, residual)
-    modes = stack_parts(parts, loads, c.shape[0])
-    if static_b is not None:
-        modes = _append_static(fe, static_b, modes, loads)
-    modes = modes.sorted()
-    kinds = modes.kind
     pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],
                           test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)
-    built = HybridConstruction(
-        pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept), expansion=base.A,
-        mean_damping=zeta_mean, fe_frequency_hz=f_fe, residual=ResidualChoice(**report),
-        residual_flexibility=parts["E"], mass_correction=parts.get("mass_correction"))
+    built = HybridConstruction(pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept),
+                               expansion=base.A, mean_damping=zeta_mean,
+                               fe_frequency_hz=f_fe)
+    w_top = float(band_lines(nm, np.sqrt(w2_id[kept]))[-1])
+    common = _Common(fe, nm, kept, base, c, loads, zeta_mean, built, w_top, static_b)
+    fits = {}                     # "tested" appends its FE modes as "identified" does
+    for res in residuals:
+        key = "fe" if res == "fe" else "identified"
+        if key not in fits:
+            fits[key] = select_residual(nm, kept, base, c, nm.phib[kept], loads, zeta_mean,
+                                        key)
+    return {res: _one(common, res, fits["fe" if res == "fe" else "identified"])
+            for res in residuals}, base.prior
+
+
+@dataclass(frozen=True, eq=False)
+class _Common:
+    """The parts of :func:`_variants` its residual representations share."""
+
+    fe: object
+    nm: NormalModeModel
+    kept: np.ndarray
+    base: object
+    c: np.ndarray
+    loads: np.ndarray | None
+    zeta: float
+    built: HybridConstruction
+    w_top: float
+    static_b: object
+
+
+def _one(cm: _Common, residual: str, fit) -> HybridModel:
+    """The hybrid model of one residual representation (``"identified"``, ``"fe"``,
+    ``"tested"``) from its residual fit ``(parts, report)`` (:func:`select_residual`)."""
+    nm, c, loads = cm.nm, cm.c, cm.loads
+    parts, report = fit
+    modes = stack_parts(parts, loads, c.shape[0])
+    if cm.static_b is not None:
+        modes = _append_static(cm.fe, cm.static_b, modes, loads)
+    modes = modes.sorted()
+    kinds = modes.kind
+    built = replace(cm.built, residual=ResidualChoice(**report, representation=residual),
+                    residual_flexibility=parts["E"],
+                    mass_correction=parts.get("mass_correction"))
     tested = TestedIO(modes.w2, modes.Gamma, c @ modes.shapes + modes.offset, modes.phib,
                       kinds)
     if residual == "tested":
-        cphi, res, built = _keep_tested(nm, built, tested,
-                                        float(band_lines(nm, np.sqrt(w2_id[kept]))[-1]))
+        cphi, res, built = _keep_tested(nm, built, tested, cm.w_top)
         E, F = None, nm.F
     else:
-        cphi, E = _realise_residual(tested.cphi, modes.w2, modes.phib, kinds, parts["E"])
+        cphi, E = realise_residual(tested.cphi, modes.w2, modes.phib, kinds, parts["E"])
         F = res = None
     return HybridModel(np.diag(modes.w2), modes.Gamma, cphi, modes.phib, E=E, F=F,
                        residual=res, sensors=nm.sensors, actuators=nm.actuators,
-                       shapes=modes.shapes, dofs=fe.dofs, fe=fe,
+                       shapes=modes.shapes, dofs=cm.fe.dofs, fe=cm.fe,
                        sensor_c=c, actuator_b=loads, kind=kinds,
                        n_static=int(np.sum(kinds == "static")), construction=built)
 
@@ -259,30 +348,6 @@ def _keep_tested(nm, built, tested, w_top):
     variant = f"tested I/O kept; appended modes as in {built.residual.variant}"
     return cphi, res, replace(built, residual_flexibility=carried, mass_correction=None,
                               residual=replace(built.residual, variant=variant))
-
-
-def _realise_residual(cphi, w2, phib, kinds, E):
-    """The kept residual flexibility ``E`` carried by the static correction modes (2.22).
-
-    As the thesis incorporates the asymptotic term in the correction modes (2.22), the
-    observabilities of the static correction modes of the test inputs get ``D`` with
-    ``D diag(1/w^2) phib_r = E``: the model's static response at the tested I/O holds
-    ``E`` exactly, its realisation (:meth:`~NormalModeModel.to_statespace`) is exact for
-    every quantity, and ``E`` is dropped with them when the inputs change
-    (:meth:`HybridModel.with_io`).  What the modes cannot carry (rank) stays in ``E``.
-    """
-    if E is None:
-        return cphi, None
-    r = np.isin(kinds, ("residual", "static")) & (w2 > 0)
-    if not np.any(r):
-        return cphi, E
-    X = phib[r] / w2[r, None]
-    D = E @ np.linalg.pinv(X, rcond=1e-10)
-    left = E - D @ X
-    cphi = np.array(cphi)
-    cphi[:, r] += D
-    tiny = 1e-9 * max(np.abs(E).max(), 1e-300)
-    return cphi, (left if np.abs(left).max() > tiny else None)
 
 
 def _warn_poor(km, mac_pairs, mac_min, fe_idx, f_id, f_fe) -> np.ndarray:

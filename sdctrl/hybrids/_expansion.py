@@ -235,12 +235,14 @@ def loo_prior(G, lam, Y, pair, *, spread=None, noise=None):
     for i, sp in enumerate(spreads):
         S, A0 = _prior(G, lam, Y, pair, sp)
         S = S + (A0**2).T
-        for j in range(n):
-            Kj = (G * S[j]) @ G.T
-            d, Q = np.linalg.eigh(0.5 * (Kj + Kj.T))
-            D = np.clip(d, 0, None)[None, :] + (noises**2 * nrm2[j] / ns)[:, None]
-            e = ((Q.T @ Y[:, j])[None, :] / D) @ Q.T / ((1.0 / D) @ (Q**2).T)
-            cost[i, :, j] = np.sum(e**2, axis=1) / nrm2[j]
+        K = np.einsum("ik,nk,jk->nij", G, S, G)                       # K_j, all modes
+        d, Q = np.linalg.eigh(0.5 * (K + K.transpose(0, 2, 1)))
+        D = (np.clip(d, 0, None)[:, None, :]
+             + (noises**2)[None, :, None] * (nrm2 / ns)[:, None, None])   # (n, noise, ns)
+        qy = np.einsum("nij,in->nj", Q, Y)                            # Q_j^T y_j
+        e = (np.einsum("nvk,nik->nvi", qy[:, None, :] / D, Q)
+             / np.einsum("nvk,nik->nvi", 1.0 / D, Q**2))
+        cost[i] = (np.sum(e**2, axis=2) / nrm2[:, None]).T
     i, j = np.unravel_index(np.argmin(cost.reshape(-1, n), axis=0), cost.shape[:2])
     return spreads[i], noises[j]
 

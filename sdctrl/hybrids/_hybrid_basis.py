@@ -33,7 +33,7 @@ import numpy as np
 
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.modal._normal_model import NormalModeModel
-from sdctrl.hybrids._expansion import expand, expand_regularised
+from sdctrl.hybrids._expansion import expand, expand_regularised, loo_prior
 from sdctrl.hybrids._residual_mass import mass_bounded, mass_fit
 
 __all__ = ["HybridBasis", "ModeSet", "band_lines", "build_basis", "fe_modes_upto",
@@ -110,7 +110,7 @@ class HybridBasis:
 
 
 def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
-                expansion: str = "regularised") -> HybridBasis:
+                expansion: str = "regularised", prior=None) -> HybridBasis:
     """Expanded, low, appended and static shapes of a hybrid model.
 
     Parameters
@@ -133,23 +133,33 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
         FE mode paired with each measured mode.
     expansion : {"regularised", "paired"}
         Rich regularised basis, or the thesis's fit (4.7) on the paired modes.
+    prior : tuple of ndarray, optional
+        ``(spread, noise)`` per mode of the regularised expansion; default chosen by
+        leave-one-sensor-out cross-validation (:func:`~sdctrl.hybrids._expansion.loo_prior`).
+        Given, it is reused: the folds of ``residual="auto"`` that hold out an actuator keep
+        the sensors and ``cphi``, hence the prior.
 
     Returns
     -------
     HybridBasis
+        With ``prior`` the ``(spread, noise)`` used (None for ``"paired"``).
     """
     lam_fe = (2 * np.pi * f_fe) ** 2
     low = lam_fe < LOW_FRACTION * lam_fe[pair].min()
     low[pair] = False
     if expansion == "paired":
         shapes, A = expand(phi_fe[:, pair], c, cphi)
+        prior = None
     else:
         T, lam_T = phi_fe[:, ~low], lam_fe[~low]
         if loads is not None:                             # static correction (2.21)
             V, wc2 = consistent_static_modes(fe, loads, phi_fe)
             T, lam_T = np.hstack([T, V]), np.concatenate([lam_T, wc2])
         where = np.cumsum(~low) - 1                       # index of FE mode k in T
-        shapes, A = expand_regularised(T, lam_T, c, cphi, where[pair])
+        if prior is None:
+            prior = loo_prior(c @ T, lam_T, cphi, where[pair])
+        shapes, A = expand_regularised(T, lam_T, c, cphi, where[pair], spread=prior[0],
+                                       noise=prior[1])
     app = np.setdiff1d(np.flatnonzero(~low), pair)
     Sa, wa2 = _orthogonal_to(fe, phi_fe[:, app], lam_fe[app], shapes)
     Sl, wl2 = phi_fe[:, low], lam_fe[low]
@@ -160,7 +170,7 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
     ratio = np.sqrt(np.clip(w2_id, 0, None)) / (2 * np.pi * f_fe[pair])
     return HybridBasis(expanded=shapes, A=A, low=Sl, low_w2=wl2, appended=Sa, appended_w2=wa2,
                        static=Vs, static_w2=ws2, kappa=float(np.median(ratio)),
-                       low_index=np.flatnonzero(low), appended_index=app)
+                       low_index=np.flatnonzero(low), appended_index=app, prior=prior)
 
 
 def _orthogonal_to(fe, X, w2, S):

@@ -67,11 +67,36 @@ class ResidualChoice(FrozenState):
     kappa : float
         Factor applied to the appended FE frequencies: the median measured/FE frequency
         ratio of the paired modes, or 1.
+    representation : str
+        The residual representation kept: ``"identified"``, ``"tested"`` or ``"fe"`` (the
+        ``residual`` argument of :func:`sdctrl.hybrid`, or what ``"auto"`` chose).
+    chosen_by : str or None
+        With ``residual="auto"``: ``"leave-one-actuator-out"``, ``"leave-one-sensor-out"``
+        (a test with one actuator) or ``"nominal"`` (one sensor and one actuator: nothing
+        can be held out, the candidate closest to ``nm`` at the tested I/O is kept); None
+        when ``residual`` was given (:func:`sdctrl.hybrids._auto.choose_residual`).
+    held_out : ndarray of int or None
+        Indices of the held-out actuators (sensors), one fold each.
+    loo_scores : dict of str to float or None
+        Per candidate representation, the mean logLS of its held-out predictions
+        (:meth:`~sdctrl.hybrids.HybridModel.with_io` on the FE DOFs) against the
+        identified model's own channels, over the band.
+    nominal_scores : dict of str to float or None
+        Per candidate, the logLS of the model built from the whole test against the
+        identified model at the tested I/O (the tie-break).
     """
 
     variant: str | None = None
     scores: dict | None = None
     kappa: float | None = None
+    representation: str | None = None
+    chosen_by: str | None = None
+    held_out: np.ndarray | None = None
+    loo_scores: dict | None = None
+    nominal_scores: dict | None = None
+
+    def __post_init__(self):
+        freeze_arrays(self)
 
 
 @dataclass(frozen=True, eq=False)

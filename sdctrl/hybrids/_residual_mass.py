@@ -73,9 +73,9 @@ def mass_fit(X, Z, w2, zeta, w, target, W):
     rows = rows.transpose(1, 0, 2).reshape(iu[0].size, -1).T
     rhs = np.concatenate([(centred(y.real) * sw).reshape(w.size, -1),
                           (y.imag * sw).reshape(w.size, -1)], axis=1).ravel()
-    scale = np.linalg.norm(rows, 2) ** 2
-    dp = np.linalg.solve(rows.T @ rows + MASS_REG * scale * np.eye(rows.shape[1]),
-                         rows.T @ rhs)
+    RtR = rows.T @ rows
+    scale = float(np.linalg.eigvalsh(RtR)[-1])                      # ||rows||_2^2
+    dp = np.linalg.solve(RtR + MASS_REG * scale * np.eye(rows.shape[1]), rows.T @ rhs)
     P = np.eye(k)
     P[iu] += dp
     P[(iu[1], iu[0])] = P[iu]

@@ -31,7 +31,7 @@ import numpy as np
 from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
-__all__ = ["ABSORBED", "TestedIO", "keep_tested"]
+__all__ = ["ABSORBED", "TestedIO", "keep_tested", "realise_residual"]
 
 #: reason recorded for an identified normal mode absorbed into the residual dynamics
 ABSORBED = "absorbed by the hybrid: no FE mode pairs with it (MAC below mac_min)"
@@ -172,3 +172,43 @@ def _with_absorbed(nm, absorbed):
         poles, reasons = list(res.poles) + poles, list(res.reasons) + reasons
     return ResidualDynamics(np.array(poles), R, sensors=nm.sensors, actuators=nm.actuators,
                             reasons=tuple(reasons))
+
+
+def realise_residual(cphi, w2, phib, kinds, E):
+    """The kept residual flexibility ``E`` carried by the static correction modes (2.22).
+
+    As the thesis incorporates the asymptotic term in the correction modes (2.22), the
+    observabilities of the static correction modes of the test inputs get ``D`` with
+    ``D diag(1/w^2) phib_r = E``: the model's static response at the tested I/O holds
+    ``E`` exactly, its realisation (:meth:`~NormalModeModel.to_statespace`) is exact for
+    every quantity, and ``E`` is dropped with them when the inputs change
+    (:meth:`HybridModel.with_io`).  What the modes cannot carry (rank) stays in ``E``.
+
+    Parameters
+    ----------
+    cphi : ndarray, shape (ns, n)
+        Tested-sensor observabilities of the modes.
+    w2, phib, kinds : ndarray
+        Their ``omega^2`` (rad/s)^2, controllabilities and kinds.
+    E : ndarray, shape (ns, na), or None
+        The kept residual flexibility.
+
+    Returns
+    -------
+    cphi : ndarray, shape (ns, n)
+        With the correction modes' offsets ``D``.
+    E : ndarray or None
+        What they cannot carry.
+    """
+    if E is None:
+        return cphi, None
+    r = np.isin(kinds, ("residual", "static")) & (w2 > 0)
+    if not np.any(r):
+        return cphi, E
+    X = phib[r] / w2[r, None]
+    D = E @ np.linalg.pinv(X, rcond=1e-10)
+    left = E - D @ X
+    cphi = np.array(cphi)
+    cphi[:, r] += D
+    tiny = 1e-9 * max(np.abs(E).max(), 1e-300)
+    return cphi, (left if np.abs(left).max() > tiny else None)

@@ -12,12 +12,15 @@ them; changes given on physical DOFs are projected by
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from sdctrl._lib.statespace import second_order
 from sdctrl._lib.validate import as_array, check_square
 
-__all__ = ["gain", "modified", "poles", "renormalised", "sym_change", "with_feedback"]
+__all__ = ["gain", "io_kept", "modified", "poles", "renormalised", "sym_change",
+           "with_feedback"]
 
 
 def sym_change(x, name: str, n: int) -> np.ndarray:
@@ -250,3 +253,40 @@ def poles(model) -> np.ndarray:
     scale = max(np.abs(lam).max(), 1.0)
     lam = lam[lam.imag >= -1e-12 * scale]
     return lam[np.argsort(np.abs(lam))]
+
+
+def io_kept(model, sensors=None, actuators=None):
+    """The model restricted to some of its outputs and inputs (a test without them).
+
+    The modes are unchanged (``Omega``, ``Gamma``, ``shapes``); ``cphi`` keeps the rows of
+    the kept sensors, ``phib`` the columns of the kept inputs, ``E`` and ``F`` both, and the
+    residual dynamics (3.7) their residues at the kept I/O.  The statistics (``std``) are
+    dropped.  Used for leave-one-out cross-validation on the test's channels
+    (:func:`sdctrl.hybrid`, ``residual="auto"``).
+
+    Parameters
+    ----------
+    model : NormalModeModel
+        The model.
+    sensors, actuators : array_like of int, optional
+        Indices of the outputs and inputs kept (default: all).
+
+    Returns
+    -------
+    NormalModeModel
+        Same type; inputs are never modified.
+    """
+    s = np.arange(model.ns) if sensors is None else np.asarray(sensors, int).reshape(-1)
+    a = np.arange(model.na) if actuators is None else np.asarray(actuators, int).reshape(-1)
+    changes = {"cphi": model.cphi[s], "phib": model.phib[:, a], "std": None,
+               "sensors": tuple(model.sensors[i] for i in s),
+               "actuators": tuple(model.actuators[j] for j in a)}
+    for name in ("E", "F"):
+        v = getattr(model, name)
+        changes[name] = None if v is None else np.asarray(v)[np.ix_(s, a)]
+    res = model.residual
+    if res is not None:
+        R = res.placed(model.sensors, model.actuators)[:, s][:, :, a]
+        changes["residual"] = replace(res, residues=R, sensors=changes["sensors"],
+                                      actuators=changes["actuators"], residue_std=None)
+    return model.replace(**changes)

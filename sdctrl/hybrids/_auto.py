@@ -1,0 +1,122 @@
+"""The hybrid's residual representation chosen from the test itself (``residual="auto"``).
+
+A hybrid model (5.1) serves predictions at inputs and outputs the test did not have
+(untested shakers and sensors, D-struts, 5.3-5.4).  Which representation of what lies
+outside the measured modes predicts them best -- the FE modes with residual terms fitted to
+the test (``"identified"``), the test's own residual dynamics kept at the tested I/O
+(``"tested"``), or the thesis's FE modes alone (``"fe"``) -- depends on the structure and on
+how wrong its FE model is, so it is decided on the test's own channels by cross-validation:
+
+- *leave-one-actuator-out*: each candidate is built from the test without actuator ``j``
+  (:func:`sdctrl.modal._operations.io_kept`), predicts that actuator's column as an untested
+  shaker (:meth:`~sdctrl.hybrids.HybridModel.with_io` with ``b`` its FE load), and is scored
+  by the logLS (3.12) of that prediction against the identified model's own column over the
+  band;
+- *leave-one-sensor-out* when the test has a single actuator (or its actuators are not
+  placed on the FE model): the held-out sensor is predicted as an untested output
+  (``with_io(c=...)``);
+- with one sensor and one actuator nothing can be held out: the candidate closest to the
+  identified model at the tested I/O is kept (``"nominal"``).
+
+At most :data:`MAX_FOLDS` channels are held out (evenly spread over the test's list).  The
+candidate of lowest mean held-out score wins; candidates within :data:`TIE` of it predict
+alike (``"identified"`` and ``"tested"`` share their FE modes away from the tested I/O, so
+their held-out predictions coincide), and among them the one closest to the identified
+model at the tested I/O is kept.  The scores are recorded on the model
+(``construction.residual``: :class:`~sdctrl.hybrids._hybrid_records.ResidualChoice`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sdctrl.modal._operations import io_kept
+from sdctrl.hybrids._hybrid_basis import band_lines
+
+__all__ = ["MAX_FOLDS", "TIE", "choose_residual", "has_tested"]
+
+#: most channels held out (one fold each)
+MAX_FOLDS = 6
+#: relative margin within which two candidates' held-out scores count as equal
+TIE = 0.02
+#: candidates whose held-out predictions are another's by construction: away from the tested
+#: I/O (``with_io`` drops the tested sensors' offsets, ``E``, ``F`` and the residual
+#: dynamics of the tested inputs) a ``"tested"`` hybrid is its ``"identified"`` one, same
+#: shapes, frequencies and damping; the folds build the latter only
+SAME_PREDICTIONS = {"tested": "identified"}
+
+
+def has_tested(nm) -> bool:
+    """Whether ``nm`` carries residual terms for ``residual="tested"`` (E, F or residual
+    dynamics)."""
+    return not (nm.E is None and nm.F is None and nm.residual is None)
+
+
+def _folds(n: int) -> np.ndarray:
+    """Indices of the held-out channels: all of ``n``, or :data:`MAX_FOLDS` evenly spread."""
+    return np.unique(np.round(np.linspace(0, n - 1, min(n, MAX_FOLDS))).astype(int))
+
+
+def _score(H, ref) -> float:
+    """logLS (3.12) of ``H`` against ``ref``."""
+    tiny = np.finfo(float).tiny
+    return float(np.mean((np.log(np.abs(H) + tiny) - np.log(np.abs(ref) + tiny)) ** 2))
+
+
+def choose_residual(build, nm, c, loads, full: dict):
+    """Residual representation of a hybrid by leave-one-out prediction on the test's channels.
+
+    Parameters
+    ----------
+    build : callable
+        ``build(nm_k, c_k, loads_k, names) -> dict`` of candidate name to HybridModel: the
+        candidates ``names`` built from a test without some channels.
+    nm : NormalModeModel
+        The identified model.
+    c : ndarray, shape (ns, N)
+        Test sensors on the FE DOFs.
+    loads : ndarray, shape (N, na), or None
+        Test inputs on the FE DOFs (None: not placed).
+    full : dict of str to HybridModel
+        The candidates built from the whole test.
+
+    Returns
+    -------
+    chosen : str
+        The kept candidate.
+    record : dict
+        ``chosen_by``, ``held_out``, ``loo_scores``, ``nominal_scores`` of
+        :class:`~sdctrl.hybrids._hybrid_records.ResidualChoice`.
+    """
+    w_id = np.sqrt(np.clip(np.diag(nm.Omega), 0, None))
+    hz = band_lines(nm, w_id) / (2 * np.pi)
+    Href = nm.frf(hz).H
+    nominal = {k: _score(m.frf(hz).H, Href) for k, m in full.items()}
+    if loads is not None and nm.na >= 2:
+        how, folds = "leave-one-actuator-out", _folds(nm.na)
+    elif nm.ns >= 2:
+        how, folds = "leave-one-sensor-out", _folds(nm.ns)
+    else:
+        best = min(nominal, key=nominal.get)
+        return best, {"chosen_by": "nominal", "held_out": np.zeros(0, int),
+                      "loo_scores": {}, "nominal_scores": nominal}
+    names = tuple(dict.fromkeys(SAME_PREDICTIONS.get(k, k) for k in full))
+    per = {k: [] for k in names}
+    for j in folds:
+        if how == "leave-one-actuator-out":
+            rest = np.delete(np.arange(nm.na), j)
+            models = build(io_kept(nm, actuators=rest), c, loads[:, rest], names)
+            for k, m in models.items():
+                per[k].append(_score(m.with_io(b=loads[:, [j]]).frf(hz).H[:, :, 0],
+                                     Href[:, :, j]))
+        else:
+            rest = np.delete(np.arange(nm.ns), j)
+            models = build(io_kept(nm, sensors=rest), c[rest], loads, names)
+            for k, m in models.items():
+                per[k].append(_score(m.with_io(c=c[[j]]).frf(hz).H[:, 0, :], Href[:, j, :]))
+    loo = {k: float(np.mean(per[SAME_PREDICTIONS.get(k, k)])) for k in full}
+    low = min(loo.values())
+    ties = [k for k in loo if loo[k] <= (1 + TIE) * low]
+    best = min(ties, key=nominal.get)
+    return best, {"chosen_by": how, "held_out": folds, "loo_scores": loo,
+                  "nominal_scores": nominal}
