@@ -204,10 +204,12 @@ def _with_strut_static(loop, s, rows):
     """Reduced model and modal strut ``phi^T s`` with the strut's static correction mode.
 
     The mode is :func:`~sdctrl.fe._static.consistent_static_modes` of ``s`` against the
-    shapes (4.23)-(4.24), appended with its stiffness and critical damping (2.20), (2.22), as
+    shapes (4.23)-(4.24), appended with its stiffness and damping (projected, or critical
+    without an FE damping matrix, :func:`~sdctrl.fe._static.with_static_blocks`), as
     :func:`sdctrl.hybrids._predictions.with_static` does -- on the reduced matrices only.
     """
-    from sdctrl.fe._static import consistent_static_modes, with_static_blocks
+    from sdctrl.fe._static import (consistent_static_modes, static_mode_damping,
+                                   with_static_blocks)
 
     m = loop.reduced
     pb = loop.shapes[rows].T @ s[rows]
@@ -216,7 +218,7 @@ def _with_strut_static(loop, s, rows):
     k = V.shape[1]
     if k == 0:
         return m, pb
-    Omega, Gamma = with_static_blocks(m.Omega, m.Gamma, wc2)
+    Omega, Gamma = with_static_blocks(m.Omega, m.Gamma, wc2, static_mode_damping(st.fe, V))
     m = m.replace(Omega=Omega, Gamma=Gamma, cphi=np.hstack([m.cphi, st.sensor_c @ V]),
                   phib=np.vstack([m.phib, V.T @ st.actuator_b]))
     return m, np.vstack([pb, V.T @ s])

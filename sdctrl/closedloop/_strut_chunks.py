@@ -56,7 +56,7 @@ def static_modes(loop, struts) -> list:
     ``wc2 = v^T K v`` (a Ritz value).  Here the chunk's loads are one right-hand side:
     one multi-column solve with the FE model's factorisation and a few sparse products,
     and each strut keeps only what the reduced model reads: ``wc2``, ``c v`` (ns,),
-    ``v^T b`` (na,) and ``v^T s``.  ``None`` for a strut whose static response the shapes
+    ``v^T b`` (na,), ``v^T s`` and ``v^T C v`` (NaN without a damping matrix).  ``None`` for a strut whose static response the shapes
     already hold.
     """
     st = loop.static
@@ -74,10 +74,13 @@ def static_modes(loop, struts) -> list:
     wc2 = np.einsum("ij,ij->j", V, np.asarray(fe.K @ V))
     cV = np.asarray(st.sensor_c @ V)
     Vb = V.T @ st.actuator_b
+    cvv = (np.einsum("ij,ij->j", V, np.asarray(fe.C @ V)) if fe.C is not None
+           else np.full(V.shape[1], np.nan))
     out = []
     for j, (rows, vals) in enumerate(struts):
         keep = nr[j] > STATIC_RTOL * max(nx[j], 1e-300) and nr2[j] > 0 and wc2[j] > 0
-        out.append((wc2[j], cV[:, j], Vb[j], V[rows, j] @ vals) if keep else None)
+        out.append((wc2[j], cV[:, j], Vb[j], V[rows, j] @ vals, cvv[j]) if keep
+                   else None)
     return out
 
 
@@ -98,8 +101,9 @@ def closed_matrices(loop, strut, ext):
     pb = loop.shapes[rows].T @ vals
     Omega, Gamma, cphi, phib = m.Omega, m.Gamma, m.cphi[loop.out_idx], m.phib
     if ext is not None:
-        wc2, cv, vb, vs = ext
-        Omega, Gamma = with_static_blocks(Omega, Gamma, np.array([wc2]))
+        wc2, cv, vb, vs, cvv = ext
+        Omega, Gamma = with_static_blocks(Omega, Gamma, np.array([wc2]),
+                                          None if np.isnan(cvv) else np.array([[cvv]]))
         cphi = np.hstack([cphi, cv[loop.out_idx, None]])
         phib = np.vstack([phib, vb[None, :]])
         pb = np.append(pb, vs)

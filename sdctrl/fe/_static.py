@@ -22,7 +22,8 @@ from sdctrl._lib.validate import as_array
 from sdctrl.fe._eigen import RIGID_RTOL, diagonal_scale
 
 __all__ = ["consistent_static_modes", "principal_static_basis", "principal_static_modes",
-           "static_correction", "static_solver", "strut_entries", "with_static_blocks"]
+           "static_correction", "static_mode_damping", "static_solver", "strut_entries",
+           "with_static_blocks"]
 
 
 def static_solver(K, M, R):
@@ -217,11 +218,17 @@ def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float =
     return V[:, good], wc2[good]
 
 
-def with_static_blocks(Omega, Gamma, wc2):
+def with_static_blocks(Omega, Gamma, wc2, damping=None):
     """Modal stiffness and damping with static correction modes appended.
 
     The modes of :func:`consistent_static_modes` enter with their projected stiffness
-    ``wc2`` and critical damping ``2 sqrt(wc2)`` (2.20), uncoupled from the others (2.22).
+    ``wc2``, uncoupled from the others (2.22), and with the FE model's own damping
+    projected on them, ``V^T C V`` (the Ritz projection that gives their stiffness) when
+    the FE model has a damping matrix, else critical damping ``2 sqrt(wc2)`` (2.20).
+    Critical damping suits correction modes that only realise a residual term far above
+    the band; a static mode inside a loop (a strut's, 5.4) carries the loop's load in the
+    band, where a critically damped coordinate adds a damping path the structure does not
+    have (a D-strut's added damping over-predicted).
 
     Parameters
     ----------
@@ -229,6 +236,8 @@ def with_static_blocks(Omega, Gamma, wc2):
         Modal stiffness and damping of the model.
     wc2 : ndarray, shape (k,)
         Squared frequencies (rad/s)^2 of the static correction modes.
+    damping : ndarray, shape (k, k), optional
+        Their damping block (:func:`static_mode_damping`); None: critical.
 
     Returns
     -------
@@ -240,8 +249,25 @@ def with_static_blocks(Omega, Gamma, wc2):
     Ga = np.zeros((n + k, n + k))
     Om[:n, :n], Ga[:n, :n] = Omega, Gamma
     Om[n:, n:] = np.diag(wc2)
-    Ga[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                             # critical (2.20)
+    if damping is None:
+        Ga[n:, n:] = np.diag(2.0 * np.sqrt(wc2))                         # critical (2.20)
+    else:
+        Ga[n:, n:] = damping
     return Om, Ga
+
+
+def static_mode_damping(fe, V):
+    """``V^T C V``: the FE model's damping projected on static correction modes ``V``
+    (mass-normalised, N x k), or None when the FE model has no damping matrix.
+
+    Returns
+    -------
+    ndarray, shape (k, k), or None
+    """
+    if fe.C is None or V.shape[1] == 0:
+        return None
+    D = V.T @ np.asarray(fe.C @ V)
+    return 0.5 * (D + D.T)
 
 
 def strut_entries(fe, node_a: str, node_b: str):

@@ -16,8 +16,8 @@ that carries its FE model (``fe``, set by :func:`sdctrl.hybrid`) and its physica
 sensors and inputs (``sensor_c``, ``actuator_b``) appends, for every new load shape, the
 correction made consistent with its own shapes
 (:func:`sdctrl.fe._static.consistent_static_modes`: the FE static response ``K^-1 b``
-made mass-orthogonal to the shapes, with its projected stiffness), critically damped
-(2.20): :func:`with_static`.  :meth:`HybridModel.with_feedback`, :func:`with_io` (new
+made mass-orthogonal to the shapes, with its projected stiffness and the FE's projected
+damping, critical (2.20) when the FE model has none): :func:`with_static`.  :meth:`HybridModel.with_feedback`, :func:`with_io` (new
 inputs) and :func:`with_modification` do it by default (``static=None``); ``static=False``
 gives the plain projection of the thesis.
 """
@@ -29,7 +29,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from sdctrl._lib.validate import as_array, readonly
-from sdctrl.fe._static import consistent_static_modes, with_static_blocks
+from sdctrl.fe._static import (consistent_static_modes, static_mode_damping,
+                               with_static_blocks)
 from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.hybrids._hybrid_records import KINDS, HybridConstruction, pairing_report
@@ -295,8 +296,11 @@ def with_static(model, loads) -> HybridModel:
 
     The FE static response ``K^-1 loads`` (4.23) made mass-orthogonal to the model's
     shapes and orthonormalised (4.24) (:func:`sdctrl.fe._static.consistent_static_modes`),
-    appended as modes with their projected stiffness and critical damping ``2 omega``
-    (2.20), uncoupled from the other modes (2.22).  The model then represents the part of
+    appended as modes with their projected stiffness and the FE model's damping projected
+    on them, ``V^T C V`` (critical damping ``2 omega``, 2.20, when the FE model has no
+    ``C``: a critically damped static mode in a strut's loop adds a damping path the
+    structure does not have, :func:`sdctrl.fe._static.with_static_blocks`), uncoupled
+    from the other modes (2.22).  The model then represents the part of
     the static response to the loads that its shapes miss: the local flexibility a large
     stiffness change (a soft or broken strut) excites, or the residual flexibility of a new
     input.  Directions the shapes already hold add nothing.
@@ -329,7 +333,8 @@ def with_static(model, loads) -> HybridModel:
     k = V.shape[1]
     if k == 0:
         return model
-    Omega, Gamma = with_static_blocks(model.Omega, model.Gamma, wc2)
+    Omega, Gamma = with_static_blocks(model.Omega, model.Gamma, wc2,
+                                      static_mode_damping(model.fe, V))
     kind = None if model.kind is None else np.concatenate([model.kind, np.full(k, "static")])
     return model.replace(kind=kind, n_static=model.n_static + k,
         Omega=Omega, Gamma=Gamma, shapes=np.hstack([model.shapes, V]),
