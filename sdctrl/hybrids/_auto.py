@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from sdctrl.modal._operations import io_kept
+from sdctrl.updating._costs import logls
 from sdctrl.hybrids._hybrid_basis import band_lines
 
 __all__ = ["MAX_FOLDS", "TIE", "choose_residual", "has_tested"]
@@ -55,12 +56,6 @@ def has_tested(nm) -> bool:
 def _folds(n: int) -> np.ndarray:
     """Indices of the held-out channels: all of ``n``, or :data:`MAX_FOLDS` evenly spread."""
     return np.unique(np.round(np.linspace(0, n - 1, min(n, MAX_FOLDS))).astype(int))
-
-
-def _score(H, ref) -> float:
-    """logLS (3.12) of ``H`` against ``ref``."""
-    tiny = np.finfo(float).tiny
-    return float(np.mean((np.log(np.abs(H) + tiny) - np.log(np.abs(ref) + tiny)) ** 2))
 
 
 def choose_residual(build, nm, c, loads, full: dict):
@@ -91,7 +86,7 @@ def choose_residual(build, nm, c, loads, full: dict):
     w_id = np.sqrt(np.clip(np.diag(nm.Omega), 0, None))
     hz = band_lines(nm, w_id) / (2 * np.pi)
     Href = nm.frf(hz).H
-    nominal = {k: _score(m.frf(hz).H, Href) for k, m in full.items()}
+    nominal = {k: logls(m.frf(hz).H, Href) for k, m in full.items()}
     if loads is not None and nm.na >= 2:
         how, folds = "leave-one-actuator-out", _folds(nm.na)
     elif nm.ns >= 2:
@@ -107,13 +102,13 @@ def choose_residual(build, nm, c, loads, full: dict):
             rest = np.delete(np.arange(nm.na), j)
             models = build(io_kept(nm, actuators=rest), c, loads[:, rest], names)
             for k, m in models.items():
-                per[k].append(_score(m.with_io(b=loads[:, [j]]).frf(hz).H[:, :, 0],
+                per[k].append(logls(m.with_io(b=loads[:, [j]]).frf(hz).H[:, :, 0],
                                      Href[:, :, j]))
         else:
             rest = np.delete(np.arange(nm.ns), j)
             models = build(io_kept(nm, sensors=rest), c[rest], loads, names)
             for k, m in models.items():
-                per[k].append(_score(m.with_io(c=c[[j]]).frf(hz).H[:, 0, :], Href[:, j, :]))
+                per[k].append(logls(m.with_io(c=c[[j]]).frf(hz).H[:, 0, :], Href[:, j, :]))
     loo = {k: float(np.mean(per[SAME_PREDICTIONS.get(k, k)])) for k in full}
     low = min(loo.values())
     ties = [k for k in loo if loo[k] <= (1 + TIE) * low]

@@ -33,6 +33,7 @@ import numpy as np
 
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.modal._normal_model import NormalModeModel
+from sdctrl.updating._costs import logls
 from sdctrl.hybrids._expansion import expand, expand_regularised, loo_prior
 from sdctrl.hybrids._residual_mass import mass_bounded, mass_fit
 
@@ -262,10 +263,7 @@ def select_residual(nm, kept, base: HybridBasis, c, phib_measured, loads, zeta: 
         if len(variants) == 1:
             return parts, {"variant": name, "scores": {}, "kappa": kap}
         model = assemble(kept_modal, parts, c, loads)
-        H = model.frf(w / (2 * np.pi)).H
-        tiny = np.finfo(float).tiny
-        scores[name] = float(np.mean((np.log(np.abs(H) + tiny) - np.log(np.abs(Href) + tiny))
-                                     ** 2))
+        scores[name] = logls(model.frf(w / (2 * np.pi)).H, Href)
         if best is None or scores[name] < scores[best[0]]:
             best = (name, parts, kap)
     return best[1], {"variant": best[0], "scores": scores, "kappa": best[2]}
