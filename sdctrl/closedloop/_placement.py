@@ -428,7 +428,7 @@ def _sweep(loop, parts, executor, progress) -> list:
     if executor is None and len(parts) > 1 and (os.cpu_count() or 1) >= THREADS > 1:
         pool = ThreadPoolExecutor(THREADS)
         if loop.static is not None:
-            loop.static.fe.static_response(np.zeros((loop.static.fe.N, 1)))
+            loop.static.fe.factorise()
     try:
         with single_thread():
             return map_chunks(_evaluate, parts, loop, executor or pool, progress,
