@@ -122,7 +122,7 @@ def test_rms_with_critically_damped_correction_modes_takes_the_block_path():
     A, B, C, D = (np.asarray(x) for x in (G.A, G.B, G.C, G.D))
     lam = np.linalg.eigvals(A)
     assert np.linalg.cond(np.linalg.eig(A)[1]) > 1e6   # the eigenbasis is useless here
-    blocks = _bandint._blocks(A)
+    blocks = _bandint.cluster_blocks(A)
     assert blocks is not None and np.count_nonzero(blocks[3]) >= 2
     lam_b, W, Wi, N = blocks
     np.testing.assert_allclose(W @ (np.diag(lam_b) + N) @ Wi, A, atol=1e-9 * np.abs(A).max())

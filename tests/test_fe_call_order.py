@@ -19,6 +19,7 @@ def _results(fe, order):
         "modes8": lambda: fe.modes(8),
         "sparse10": lambda: fe.modes(10, method="sparse"),
         "rigid": fe.rigid_modes,
+        "factorise": lambda: fe.factorise() is fe,
         "static": lambda: fe.static_response(["N12.y", "N6.z"]),
         "nmm": lambda: fe.normal_mode_model(["N12.y"], ["N12.y", "N0.z"], 9, static=True),
     }
@@ -36,7 +37,8 @@ def _same(a, b):
     return np.array_equal(a, b)
 
 
-@pytest.mark.parametrize("first", [["modes20", "sparse10", "modes8"], ["sparse10"], []])
+@pytest.mark.parametrize("first", [["modes20", "sparse10", "modes8"], ["sparse10"], [],
+                                   ["factorise"]])
 def test_results_do_not_depend_on_call_order(first):
     fe = _free_beam(12)                                 # 6 rigid-body modes
     order = ["rigid", "static", "nmm", "modes8", "modes20", "sparse10"]

@@ -56,7 +56,7 @@ def band_integral(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
     lam, V = np.linalg.eig(A)
     if np.linalg.cond(V) < 1e6:
         return W + _diagonal(lam, V, np.linalg.inv(V), None, B, C, SD, S, w1, w2)
-    blocks = _blocks(A)
+    blocks = cluster_blocks(A)
     if blocks is not None:
         return W + _diagonal(*blocks, B, C, SD, S, w1, w2)
     return W + _logm(A, B, C, SD, S, w1, w2)
@@ -66,7 +66,7 @@ def _diagonal(lam, V, Vi, N, B, C, SD, S, w1, w2):
     """Integral in a basis where ``A = V (diag(lam) + N) V^-1``, ``N`` nilpotent (or None)."""
     Bt, Ct = Vi @ B, C @ V
     Qt = (Bt * S) @ Bt.conj().T
-    L = _log_difference(lam, N, w1, w2)
+    L = log_difference(lam, N, w1, w2)
     K = 1.0 / (lam[:, None] + lam.conj()[None, :])
     rhs = -(L @ Qt + Qt @ L.conj().T)
     X = K * rhs
@@ -80,7 +80,7 @@ def _diagonal(lam, V, Vi, N, B, C, SD, S, w1, w2):
     return Ct @ X @ Ct.conj().T + CY + CY.conj().T
 
 
-def _log_difference(lam, N, w1, w2):
+def log_difference(lam, N, w1, w2):
     """``-j [log(j w2 - T) - log(j w1 - T)]`` for ``T = diag(lam) + N`` (2x2 clusters)."""
     p2, p1 = 1j * w2 - lam, 1j * w1 - lam
     L = np.diag(-1j * (np.log(p2) - np.log(p1)))
@@ -104,7 +104,7 @@ def _divided_log(p, q):
     return (np.log(p) - np.log(q)) / d
 
 
-def _blocks(A):
+def cluster_blocks(A):
     """``(lam, W, Wi, N)`` with ``A = W (diag(lam) + N) W^-1`` and ``N`` strictly upper
     triangular inside clusters of at most two close eigenvalues; None when that fails.
 

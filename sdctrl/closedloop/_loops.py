@@ -185,6 +185,68 @@ def rms_of_matrices(A, B, C, D, band, psd=1.0, lam=None) -> np.ndarray:
                          "conditioned (scale its states or matrices)") from None
 
 
+def appended_block(A2, B2, C2, D, band, psd=1.0):
+    """The fixed block of :func:`rms_appended` (:func:`sdctrl._lib.bandappend.fixed_block`).
+
+    Parameters
+    ----------
+    A2, B2, C2 : ndarray
+        Realisation of the part of a system no candidate changes.
+    D : ndarray
+        Feedthrough of the assembled systems.
+    band : (float, float)
+        Band (Hz), finite.
+    psd : float or array_like
+        One-sided input PSD, as for :func:`rms`.
+
+    Returns
+    -------
+    FixedBlock
+    """
+    from sdctrl._lib.bandappend import fixed_block
+
+    S = _psd(psd, B2.shape[1])
+    w1, w2 = 2 * np.pi * band[0], 2 * np.pi * band[1]
+    axis = _check_poles(A2, w1, w2, "the model's fixed part")
+    return fixed_block(A2, B2, C2, D, S, w1, w2, undamped=axis is not None)
+
+
+def rms_appended(A1, B1, C1, fixed, lam=None) -> np.ndarray:
+    """:func:`rms` of ``(diag(A1, A2), [B1; B2], [C1, C2], D)`` with the block ``fixed``
+    (:func:`appended_block`) shared by many systems: the same numbers as
+    :func:`rms_of_matrices` of the assembled system, without its matrix logarithms.
+
+    Parameters
+    ----------
+    A1, B1, C1 : ndarray
+        The changed block.
+    fixed : FixedBlock
+        The rest.
+    lam : ndarray, optional
+        Eigenvalues of ``A1`` when the caller has them.
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+    """
+    from sdctrl._lib.bandappend import band_integral_appended
+
+    w1, w2 = fixed.band
+    axis = _check_poles(A1, w1, w2, lam=lam)
+    W = None if axis is not None else band_integral_appended(A1, B1, C1, fixed, lam)
+    if W is None:
+        k = A1.shape[0]
+        A = np.zeros((k + fixed.A.shape[0],) * 2)
+        A[:k, :k], A[k:, k:] = A1, fixed.A
+        lam_all = None if lam is None else np.concatenate([lam, fixed.lam])
+        return rms_of_matrices(A, np.vstack([B1, fixed.B]), np.hstack([C1, fixed.C]),
+                               fixed.D, (w1 / (2 * np.pi), w2 / (2 * np.pi)), fixed.S,
+                               lam=lam_all)
+    var = np.real(np.diag(W)) / (2 * np.pi)
+    check_finite_result(var, "the RMS", "sys, band or psd")
+    return np.sqrt(np.clip(var, 0.0, None))
+
+
 def _rms(A, B, C, D, S, w1: float, w2: float) -> np.ndarray:
     """RMS of each output over ``(w1, w2)`` rad/s (``w2`` may be inf); see :func:`rms`."""
     if np.isinf(w2):

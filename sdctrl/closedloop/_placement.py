@@ -153,9 +153,11 @@ class _Loop:
     ``reduced`` is the model without its shapes (the reduced model every candidate changes
     by a low-rank term); ``shapes`` (N, n) are read at a strut's few DOFs only; ``static``
     holds the :class:`~sdctrl.closedloop._strut_chunks.Statics` of a hybrid model whose struts get their own static
-    correction mode (:meth:`HybridModel.with_feedback`), else None; ``plain`` says the
-    reduced model is its second-order part only (2.15: no ``E`` nor ``F``), whose closed
-    loops are then formed as matrices directly.
+    correction mode (:meth:`HybridModel.with_feedback`), else None; ``fixed`` is the
+    realisation (a :class:`~sdctrl._lib.bandappend.FixedBlock`) at the chosen outputs of
+    what a strut on the modal coordinates leaves unchanged -- the model's ``E``, ``F`` and residual dynamics (a tested
+    hybrid's terms at the tested I/O) -- appended to every closed loop; None when the
+    reduced model is its second-order part only (2.15).
     """
 
     reduced: object
@@ -169,21 +171,12 @@ class _Loop:
     kv: float
     criterion: str
     p_open: np.ndarray
-    plain: bool = False
+    fixed: tuple | None = None
     rms_open: np.ndarray | None = None
 
 
-def _measure(loop, m):
-    """Band-limited RMS of the chosen outputs of model ``m``."""
-    from sdctrl.closedloop._loops import rms
-
-    return rms(m.to_statespace()[loop.out_idx, :], loop.band, loop.psd)
-
-
 def _open_rms(loop) -> np.ndarray:
-    """RMS of the chosen outputs in open loop (as matrices on a plain reduced model)."""
-    if not loop.plain:
-        return _measure(loop, loop.reduced)
+    """RMS of the chosen outputs in open loop (as matrices, like the closed loops)."""
     from sdctrl._lib.statespace import second_order
 
     m = loop.reduced
@@ -191,102 +184,71 @@ def _open_rms(loop) -> np.ndarray:
     return _band_rms(loop, A, B, C, None)
 
 
+def _fixed_part(model, out_idx, band, psd):
+    """The block of the model's realisation (2.15)-(2.24) beyond its ``2 n`` modal states
+    at the outputs ``out_idx`` (:func:`sdctrl.closedloop._loops.appended_block`); None
+    without ``E``, ``F`` or residual dynamics."""
+    from sdctrl.closedloop._loops import appended_block
+    from sdctrl.modal._normal_realisation import realisation_matrices
+
+    if model.E is None and model.F is None and (model.residual is None
+                                                or not model.residual.m):
+        return None
+    A, B, C, D, _ = realisation_matrices(model, 0, None, False)
+    k = 2 * model.n
+    return appended_block(A[k:, k:], B[k:], C[out_idx, k:], D[out_idx], band, psd)
+
+
 def _reduced(model):
     """The model's reduced part, without its (N, n) shapes: what a candidate changes."""
     from sdctrl.modal._normal_model import NormalModeModel
+    from sdctrl.modal._normal_realisation import default_omega_f
 
     return NormalModeModel(model.Omega, model.Gamma, model.cphi, model.phib, E=model.E,
                            sensors=model.sensors, actuators=model.actuators,
-                           omega_c=model.omega_c, F=model.F)
-
-
-def _with_strut_static(loop, s, rows):
-    """Reduced model and modal strut ``phi^T s`` with the strut's static correction mode.
-
-    The mode is :func:`~sdctrl.fe._static.consistent_static_modes` of ``s`` against the
-    shapes (4.23)-(4.24), appended with its stiffness and damping (projected, or critical
-    without an FE damping matrix, :func:`~sdctrl.fe._static.with_static_blocks`), as
-    :func:`sdctrl.hybrids._predictions.with_static` does -- on the reduced matrices only.
-    """
-    from sdctrl.fe._static import (consistent_static_modes, static_mode_damping,
-                                   with_static_blocks)
-
-    m = loop.reduced
-    pb = loop.shapes[rows].T @ s[rows]
-    st = loop.static
-    V, wc2 = consistent_static_modes(st.fe, s, loop.shapes)
-    k = V.shape[1]
-    if k == 0:
-        return m, pb
-    Omega, Gamma = with_static_blocks(m.Omega, m.Gamma, wc2, static_mode_damping(st.fe, V))
-    m = m.replace(Omega=Omega, Gamma=Gamma, cphi=np.hstack([m.cphi, st.sensor_c @ V]),
-                  phib=np.vstack([m.phib, V.T @ st.actuator_b]))
-    return m, np.vstack([pb, V.T @ s])
-
-
-def _closed(loop, bar):
-    """Closed loop of the strut on ``bar`` (5.4) as a low-rank change of the reduced model
-    (the general path: a model with ``E``, ``F`` or residual dynamics)."""
-    s = loop.fe.strut(*bar)
-    rows = np.flatnonzero(s[:, 0])
-    if loop.static is not None:
-        m, pb = _with_strut_static(loop, s, rows)
-    else:
-        m, pb = loop.reduced, loop.shapes[rows].T @ s[rows]
-    return m.with_feedback(pb, pb.T, kp=loop.kp, kv=loop.kv, modal=True)
+                           omega_c=model.omega_c, F=model.F, residual=model.residual,
+                           omega_f=default_omega_f(model) if model.F is not None else None)
 
 
 def _evaluate(bars, loop) -> list:
-    """``(bar, Candidate or None, reason or None)`` of each bar of a chunk (5.4).
+    """``(bar, Candidate or None, reason or None)`` of each bar of a chunk (5.4), as arrays.
 
     Single-threaded BLAS: the reduced matrices are small, and threaded BLAS on them is many
-    times slower on a loaded machine (and oversubscribes an executor's workers).  On a
-    plain reduced model the chunk is evaluated as arrays: compact struts, the static
-    correction modes of all its struts at once, the closed-loop poles of all candidates in
-    one stacked eigenvalue call, no model or StateSpace per candidate.
+    times slower on a loaded machine (and oversubscribes an executor's workers).  The
+    chunk's struts are compact, the static correction modes of all of them are computed
+    at once, the closed-loop poles of all candidates in one stacked eigenvalue call, no
+    model or StateSpace per candidate; what the strut leaves unchanged (``E``, ``F``,
+    residual dynamics) is appended to each closed loop (:attr:`_Loop.fixed`).
     """
-    with single_thread():
-        if not loop.plain:
-            return [_candidate(bar, loop) for bar in bars]
-        return _evaluate_plain(bars, loop)
-
-
-def _evaluate_plain(bars, loop) -> list:
-    """:func:`_evaluate` on a plain reduced model (see there)."""
     from sdctrl.fe._static import strut_entries
 
-    struts, out = {}, {}
-    for i, bar in enumerate(bars):
-        try:
-            struts[i] = strut_entries(loop.fe, *bar)
-        except ValueError as exc:
-            out[i] = (tuple(bar), None, str(exc))
-    keys = list(struts)
-    exts = (chunks.static_modes(loop, [struts[i] for i in keys])
-            if loop.static is not None and keys else [None] * len(keys))
-    mats = [chunks.closed_matrices(loop, struts[i], e) for i, e in zip(keys, exts)]
-    lams = chunks.stacked_eigvals([A for A, _, _ in mats])
-    for i, (A, B, C), lam in zip(keys, mats, lams):
-        out[i] = _scored(bars[i], loop, chunks.upper(lam),
-                         lambda A=A, B=B, C=C, lam=lam: _band_rms(loop, A, B, C, lam))
-    return [out[i] for i in range(len(bars))]
+    with single_thread():
+        struts, out = {}, {}
+        for i, bar in enumerate(bars):
+            try:
+                struts[i] = strut_entries(loop.fe, *bar)
+            except ValueError as exc:
+                out[i] = (tuple(bar), None, str(exc))
+        keys = list(struts)
+        exts = (chunks.static_modes(loop, [struts[i] for i in keys])
+                if loop.static is not None and keys else [None] * len(keys))
+        mats = [chunks.closed_matrices(loop, struts[i], e) for i, e in zip(keys, exts)]
+        lams = chunks.stacked_eigvals([A for A, _, _ in mats])
+        for i, (A, B, C), lam in zip(keys, mats, lams):
+            out[i] = _scored(bars[i], loop, chunks.upper(lam),
+                             lambda A=A, B=B, C=C, lam=lam: _band_rms(loop, A, B, C, lam))
+        return [out[i] for i in range(len(bars))]
 
 
 def _band_rms(loop, A, B, C, lam) -> np.ndarray:
-    """RMS of the chosen outputs of the closed loop ``(A, B, C)`` (eigenvalues ``lam``)."""
-    from sdctrl.closedloop._loops import rms_of_matrices
+    """RMS of the chosen outputs of the modal loop ``(A, B, C)`` (eigenvalues ``lam`` or
+    None) with the model's fixed part appended."""
+    from sdctrl.closedloop._loops import rms_appended, rms_of_matrices
 
+    if loop.fixed is not None:
+        return rms_appended(A, B, C, loop.fixed, lam)
     return rms_of_matrices(A, B, C, np.zeros((C.shape[0], B.shape[1])), loop.band, loop.psd,
                            lam=lam)
-
-
-def _candidate(bar, loop) -> tuple:
-    """``(bar, Candidate or None, reason or None)`` of one bar (general path)."""
-    try:
-        cl = _closed(loop, bar)
-    except ValueError as exc:
-        return tuple(bar), None, str(exc)
-    return _scored(bar, loop, cl.poles, lambda: _measure(loop, cl))
 
 
 def _scored(bar, loop, poles, measure) -> tuple:
@@ -395,9 +357,9 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     if p_open.size == 0:
         raise ValueError(f"band: no mode of the model between {lo:g} and {hi:g} Hz")
     static = chunks.statics(model) if getattr(model, "static_ready", False) else None  # a hybrid's
-    plain = model.E is None and model.F is None          # _reduced drops residual
-    loop = _Loop(_reduced(model), np.asarray(model.shapes), fe, static, (lo, hi), out_idx,
-                 psd, kp, kv, criterion, p_open, plain)
+    reduced = _reduced(model)
+    loop = _Loop(reduced, np.asarray(model.shapes), fe, static, (lo, hi), out_idx, psd, kp,
+                 kv, criterion, p_open, _fixed_part(reduced, out_idx, (lo, hi), psd))
     loop = replace(loop, rms_open=_open_rms(loop))
     done = _sweep(loop, chunked(candidates, CHUNK), executor, progress)
     results = [c for chunk in done for _, c, _ in chunk if c is not None]
@@ -428,7 +390,7 @@ def _sweep(loop, parts, executor, progress) -> list:
     if executor is None and len(parts) > 1 and (os.cpu_count() or 1) >= THREADS > 1:
         pool = ThreadPoolExecutor(THREADS)
         if loop.static is not None:
-            loop.static.fe.static_response(np.zeros((loop.static.fe.N, 1)))
+            loop.static.fe.factorise()
     try:
         with single_thread():
             return map_chunks(_evaluate, parts, loop, executor or pool, progress,

@@ -313,6 +313,18 @@ class FEModel(ElementGroups):
                 else statics.static_solver(self.K, self.M, self.rigid_modes()))
         return self._cache["static_solver"]
 
+    def factorise(self) -> FEModel:
+        """Build now the factorisation static solutions use (otherwise built on first use),
+        so that threads solving at once share one instead of racing to build it.
+
+        Returns
+        -------
+        FEModel
+            This model (its cache filled; its numbers unchanged).
+        """
+        self._static_solver()
+        return self
+
     def static_response(self, b) -> np.ndarray:
         """Static response ``K^-1 b`` (factorised once, sparse when the model is sparse).
 

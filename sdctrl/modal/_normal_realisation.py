@@ -121,7 +121,8 @@ def to_statespace(model, quantity: str = "displacement", omega_c: float | None =
     if not isinstance(rigid_body, bool | np.bool_):
         raise TypeError(f"rigid_body must be True or False, got {rigid_body!r}")
     with np.errstate(all="ignore"):
-        A, B, C, D, states = _realisation(model, QUANTITY_POWER[q], omega_c, bool(rigid_body))
+        A, B, C, D, states = realisation_matrices(model, QUANTITY_POWER[q], omega_c,
+                                                  bool(rigid_body))
     check_finite_result([np.abs(X).max(initial=0.0) for X in (A, B, C, D)], "the realisation",
                         "omega_c or the model's Omega, Gamma, cphi, phib, E, F")
     import control
@@ -141,7 +142,7 @@ def _append(parts, A, B, C, D, states):
     return A, B, C, D, states
 
 
-def _realisation(model, k: int, omega_c: float | None, rigid_body: bool):
+def realisation_matrices(model, k: int, omega_c: float | None, rigid_body: bool):
     """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``k``."""
     ns, na = model.ns, model.na
     A, B, C, D = second_order(model.Omega, model.Gamma, model.phib, model.cphi, k)
