@@ -41,10 +41,8 @@ FACTOR_RTOL = 1e-7
 DEFECT_SPLIT = 1e-7
 #: floor of |H / Hd|^2 in the screen (single precision)
 _TINY = np.float32(1e-30)
-#: entries of a block of candidates in the screen: its four work arrays (two complex64, two
-#: float32 of which one doubled, 22 bytes an entry) fit a core's 512 kB L2 cache; a candidate
-#: with more entries is a block of its own (2 ** 17 before: 11-12 vs 7-11 ns an entry)
-BLOCK = 2 ** 14
+#: entries of a block of candidates in the screen (about 1 MB of complex64: in cache)
+BLOCK = 2 ** 17
 
 
 @dataclass(frozen=True, eq=False)
@@ -343,14 +341,11 @@ def woodbury(H0, Gyk, Gkk, Gku, D) -> np.ndarray:
     return H0 - D[:, None, None] * (Gyk @ X)
 
 
-def _log_cost(Q, q, t2, out_col):
-    """``mean(log(|Q|^2)^2) / 4`` per candidate of a block, in place in ``q``, ``t2``.
-
-    ``|Q|^2`` is formed from the squares of ``Q``'s real and imaginary parts read as one
-    contiguous float32 array (``t2``, shape ``q.shape + (2,)``): the same roundings as
-    ``Q.real**2 + Q.imag**2``, one strided pass fewer."""
-    np.square(Q.view(np.float32).reshape(t2.shape), out=t2)
-    np.add(t2[..., 0], t2[..., 1], out=q)
+def _log_cost(Q, q, t, out_col):
+    """``mean(log(|Q|^2)^2) / 4`` per candidate of a block, in place in ``q``, ``t``."""
+    np.multiply(Q.real, Q.real, out=q)
+    np.multiply(Q.imag, Q.imag, out=t)
+    q += t
     np.maximum(q, _TINY, out=q)
     np.log(q, out=q)
     np.square(q, out=q)
@@ -358,27 +353,19 @@ def _log_cost(Q, q, t2, out_col):
     out_col[:] = qq.sum(axis=1) / (4.0 * qq.shape[1])          # pairwise summation
 
 
-def _buffers(nb, A):
-    """Work arrays of a block of ``nb`` candidates: two complex64, ``|Q|^2`` and its parts."""
-    shape = (nb,) + A.shape
-    return (np.empty(shape, np.complex64), np.empty(shape, np.complex64),
-            np.empty(shape, np.float32), np.empty(shape + (2,), np.float32))
-
-
 def _screen_rank1(A, iHd, D, Gyk, Gkk, Gku, out):
     """Rank-1 candidates: ``Q = A - g P``, ``P = G_yk G_ku / H_d``, ``g = D / (1 + D G_kk)``."""
     nb = max(1, BLOCK // A.size)
-    bufs = _buffers(min(nb, out.shape[0]), A)
     for a in range(0, out.shape[0], nb):
         sl = slice(a, a + nb)
-        P, Q, q, t2 = (x[:min(nb, out.shape[0] - a)] for x in bufs)
-        np.multiply(Gyk[sl, :, :, :1], Gku[sl, :, :1, :], out=P)
-        P *= iHd                                                       # (b, nf, ns, na)
+        P = (Gyk[sl, :, :, :1] * Gku[sl, :, :1, :]) * iHd            # (b, nf, ns, na)
+        Q = np.empty_like(P)
+        q, t = np.empty(P.shape, np.float32), np.empty(P.shape, np.float32)
         for j in range(out.shape[1]):
             g = D[sl, j] / (1.0 + D[sl, j] * Gkk[sl, :, 0, 0])          # (b, nf)
             np.multiply(P, g[:, :, None, None], out=Q)
             np.subtract(A, Q, out=Q)
-            _log_cost(Q, q, t2, out[sl, j])
+            _log_cost(Q, q, t, out[sl, j])
 
 
 def _screen_rank_k(A, iHd, D, Gyk, Gkk, Gku, out):
@@ -386,17 +373,18 @@ def _screen_rank_k(A, iHd, D, Gyk, Gkk, Gku, out):
     k = Gkk.shape[-1]
     eye = np.eye(k, dtype=np.complex64)
     nb = max(1, BLOCK // A.size)
-    bufs = _buffers(min(nb, out.shape[0]), A)
     for a in range(0, out.shape[0], nb):
         sl = slice(a, a + nb)
-        _, Q, q, t2 = (x[:min(nb, out.shape[0] - a)] for x in bufs)
+        shape = (Gyk[sl].shape[0],) + A.shape
+        Q = np.empty(shape, np.complex64)
+        q, t = np.empty(shape, np.float32), np.empty(shape, np.float32)
         for j in range(out.shape[1]):
             d = D[sl, j][:, :, None, None]
             X = np.linalg.solve(eye + d * Gkk[sl], Gku[sl])             # (b, nf, k, na)
             np.matmul(Gyk[sl], d * X, out=Q)
             Q *= iHd
             np.subtract(A, Q, out=Q)
-            _log_cost(Q, q, t2, out[sl, j])
+            _log_cost(Q, q, t, out[sl, j])
 
 
 def screen_chunk(task) -> np.ndarray:
