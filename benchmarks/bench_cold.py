@@ -36,12 +36,22 @@ sdctrl, perf branch     8.51 s  2.48 s  0.59   load 8.8 -> 12.0 (2 cores, 5 sess
 EMA, same run          14.50 s 3.99 s         ``import sdctrl`` 0.00 s (lazy), EMA's 9.1 s
 sdctrl, perf2 branch    1.96 s  0.60 s  0.32   load 10.8-11.1, byte-code caches kept (see
 EMA, same run          6.23 s  3.62 s         :func:`fresh`); 0.35 in a second run
+sdctrl, main 5cfee17    0.75 s  0.27 s  0.32   load 0.2 -> 1.7 (perf3's baseline)
+EMA, same run          2.31 s  0.29 s
+sdctrl, perf3 branch    2.22 s  1.21 s  0.30   load 7.3, no scipy.optimize (below)
+EMA, same run          7.38 s  1.39 s
+sdctrl, perf3, run 2    1.36 s  0.63 s  0.28   load 6.6
+EMA, same run          4.90 s  1.72 s
 =====================  ======  ======  =====  =========================================
 
-On the perf branch a fresh ``identify`` imports scipy.linalg, scipy.special (``chdtri``) and
-scipy.optimize (``least_squares``; its package import pulls shgo/linprog, about 1 s) and
-nothing else heavy: no control, matplotlib, cvxpy, scipy.stats/signal, pyuff nor tqdm
-(``tests/test_lazy_imports.py``).  The rest of the fresh figure is the fit itself.
+On the perf3 branch a fresh ``identify`` imports scipy.linalg and scipy.special (``chdtri``)
+and nothing else heavy: no scipy.optimize (the pole search's trust-region reflective least
+squares is :mod:`sdctrl._lib.boundlsq`, scipy's algorithm with the same iterates; the package
+import pulled shgo, linprog, scipy.spatial and scipy.constants, 0.16 s unloaded, 0.4-0.6 s
+under load), control, matplotlib, cvxpy, scipy.stats/signal, pyuff nor tqdm
+(``tests/test_lazy_imports.py``).  Left on that path: scipy.linalg (0.1-0.25 s, QR and
+triangular solves of the fit) and scipy.special (0.05-0.2 s, one ``chdtri`` per significance
+test); the rest of the fresh figure is the fit itself.
 
 fe case (N = 100,224, 20 modes, 2 runs, load ~9-11): ``FEModel(M, K).modes(20)`` fresh 153 s,
 warm 144 s; plain ``eigsh`` fresh 271 s, warm 180 s: ratios 0.57 (fresh) and 0.80 (warm),

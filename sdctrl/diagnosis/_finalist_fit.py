@@ -16,7 +16,7 @@ from scipy.optimize import least_squares, minimize_scalar
 
 from sdctrl._lib.threads import single_thread
 from sdctrl.diagnosis._lowrank import dynamic_stiffness, woodbury
-from sdctrl.diagnosis._residual_map import complex_residual
+from sdctrl.diagnosis._residual_map import cost, log_ratio, ratio_cost
 
 __all__ = ["fit_task"]
 
@@ -24,17 +24,11 @@ __all__ = ["fit_task"]
 PRE_FIT_LINES = 200
 
 
-def _log_q(q):
-    """``Log(q)`` with the magnitude floored as :func:`complex_residual` does."""
-    return complex_residual(q, np.ones(1))
-
-
-def _fit_size(t, resid):
-    """Bounded 1-D minimisation of the cost over ``u = log(base + size)`` around the best grid
-    point of the screen."""
+def _fit_size(t, cost_of):
+    """Bounded 1-D minimisation of the cost ``cost_of(size)`` over ``u = log(base + size)``
+    around the best grid point of the screen."""
     def c1(u):
-        r = resid(np.exp(u) - t["base"])
-        return float(np.mean(r.real**2 + r.imag**2))
+        return cost_of(np.exp(u) - t["base"])
 
     u = np.sort(np.log(t["base"] + t["grid"]))
     j = int(np.searchsorted(u, np.log(t["base"] + t["grid"][t["best"]])))
@@ -82,7 +76,7 @@ def _least_squares(s, A, P, Gkk, x0, lb, ub):
         return q, dD / (den * den)
 
     def rv(x):
-        r = _log_q(parts(x)[0]).reshape(-1)
+        r = log_ratio(parts(x)[0]).reshape(-1)
         return np.r_[r.real, r.imag]
 
     def jac(x):
@@ -120,11 +114,11 @@ def fit_task(t) -> tuple:
             if kind == "resonator":
                 return _fit_resonator(t, A, P, g11)
 
-            def resid(size):
+            def cost_of(size):                 # the ratio H / Hd formed directly
                 D = dynamic_stiffness(kind, s, size)
-                return _log_q(A - (D / (1.0 + D * g11))[:, None, None] * P)
+                return ratio_cost(A - (D / (1.0 + D * g11))[:, None, None] * P)
         else:
-            def resid(size):
+            def cost_of(size):
                 D = dynamic_stiffness(kind, s, size)
-                return complex_residual(woodbury(H0, Gyk, Gkk, Gku, D), Hd)
-        return _fit_size(t, resid)
+                return cost(woodbury(H0, Gyk, Gkk, Gku, D), Hd)
+        return _fit_size(t, cost_of)

@@ -52,7 +52,7 @@ import numpy as np
 from scipy.special import chdtrc  # chi-square survival (scipy.stats costs seconds to import)
 
 __all__ = ["ALPHA", "ResidualMap", "complex_residual", "cost", "ebic_score", "false_alarm",
-           "noise_level", "residual_map"]
+           "log_ratio", "noise_level", "ratio_cost", "residual_map"]
 
 #: largest accepted false-alarm probability of a step (Bonferroni over its hypotheses)
 ALPHA = 1e-3
@@ -75,7 +75,22 @@ def complex_residual(H, Hd) -> np.ndarray:
     -------
     ndarray, complex
     """
-    q = H / Hd
+    return log_ratio(H / Hd)
+
+
+def log_ratio(q) -> np.ndarray:
+    """``Log(q)`` of a ratio ``q = H / Hd`` already formed, with the magnitude floored as
+    :func:`complex_residual` does (``log |q| >= -50``).
+
+    Parameters
+    ----------
+    q : ndarray, complex
+        Ratio of predicted to measured responses.
+
+    Returns
+    -------
+    ndarray, complex
+    """
     out = np.empty(q.shape, complex)
     out.real, out.imag = _log_abs(q), np.arctan2(q.imag, q.real)
     return out
@@ -103,7 +118,22 @@ def cost(H, Hd) -> float:
     -------
     float
     """
-    q = H / Hd
+    return ratio_cost(H / Hd)
+
+
+def ratio_cost(q) -> float:
+    """:func:`cost` of a ratio ``q = H / Hd`` already formed: ``mean |Log q|^2``, the same
+    numbers as ``mean(r.real**2 + r.imag**2)`` of ``r = log_ratio(q)`` without forming ``r``.
+
+    Parameters
+    ----------
+    q : ndarray, complex
+        Ratio of predicted to measured responses.
+
+    Returns
+    -------
+    float
+    """
     a = _log_abs(q)
     p = np.arctan2(q.imag, q.real)
     a *= a
