@@ -9,10 +9,9 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-#: heavy packages the identification path must not import (scipy.optimize: 0.4-0.6 s of a
-#: fresh identify under load for ``least_squares``, now sdctrl._lib.boundlsq)
-HEAVY = ("cvxpy", "matplotlib", "control", "scipy.stats", "scipy.signal", "scipy.optimize",
-         "pyuff", "tqdm", "distributed", "dask")
+#: heavy packages the identification path must not import
+HEAVY = ("cvxpy", "matplotlib", "control", "scipy.stats", "scipy.signal", "pyuff", "tqdm",
+         "distributed", "dask")
 
 
 def _loaded(code: str) -> dict:

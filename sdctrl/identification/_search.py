@@ -11,9 +11,9 @@ poles only, ``J(lambda) = ||(I - P_Phi) Y||^2`` (3.18).  Two optimisers update t
     its own step in the descent direction and its step is halved every time it passes
     over its optimum (sign change of its gradient component).
 ``"varpro"`` (default)
-    Variable projection: the residues are eliminated inside the pole search and a
-    trust-region reflective least squares (scipy's ``least_squares`` algorithm, in
-    :mod:`sdctrl._lib.boundlsq`) minimises ``J`` over the poles with the Kaufman Jacobian ``-P_perp (dPhi/dtheta) R``.  The Jacobian is passed in a
+    Variable projection: the residues are eliminated inside the pole search and
+    ``scipy.optimize.least_squares`` (trust region, bounds) minimises ``J`` over the poles
+    with the Kaufman Jacobian ``-P_perp (dPhi/dtheta) R``.  The Jacobian is passed in a
     compact form (Cholesky factor of ``[J r]^T [J r]``) of size ``2n+1``, so the cost of an
     iteration does not grow with the number of frequency lines times sensors.
 
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from sdctrl._lib.boundlsq import trf_least_squares
 from sdctrl.identification._residues import (
     LSQ,
     basis,
@@ -262,9 +261,8 @@ def _compact(ev):
 
 
 def _varpro(prob, x0, lo, hi, max_iter, tol):
-    """Variable projection: trust-region reflective least squares on the compact residual of
-    :func:`_compact` (scipy's ``least_squares(method="trf", x_scale="jac")``, same iterates,
-    without importing ``scipy.optimize``: :mod:`sdctrl._lib.boundlsq`)."""
+    """Variable projection: ``least_squares`` on the compact residual of :func:`_compact`."""
+    from scipy.optimize import least_squares
 
     def fun(x):
         return _compact(prob.evaluate(x, jac=True))[0]
@@ -272,8 +270,8 @@ def _varpro(prob, x0, lo, hi, max_iter, tol):
     def jac(x, *_):
         return _compact(prob.evaluate(x, jac=True))[1]
 
-    res = trf_least_squares(fun, jac, x0, lo, hi, ftol=tol, xtol=tol, gtol=tol,
-                            max_nfev=max_iter)
+    res = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
+                        ftol=tol, xtol=tol, gtol=tol, max_nfev=max_iter)
     return res.x, {"status": int(res.status), "nfev": int(res.nfev),
                    "converged": bool(res.status > 0), "message": str(res.message)}
 
