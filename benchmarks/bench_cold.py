@@ -38,20 +38,24 @@ sdctrl, perf2 branch    1.96 s  0.60 s  0.32   load 10.8-11.1, byte-code caches 
 EMA, same run          6.23 s  3.62 s         :func:`fresh`); 0.35 in a second run
 sdctrl, main 5cfee17    0.75 s  0.27 s  0.32   load 0.2 -> 1.7 (perf3's baseline)
 EMA, same run          2.31 s  0.29 s
-sdctrl, perf3 branch    2.22 s  1.21 s  0.30   load 7.3, no scipy.optimize (below)
-EMA, same run          7.38 s  1.39 s
+sdctrl, perf3 branch    2.22 s  1.21 s  0.30   load 7.3, scipy's TRF copied in (not kept,
+EMA, same run          7.38 s  1.39 s         see below)
 sdctrl, perf3, run 2    1.36 s  0.63 s  0.28   load 6.6
 EMA, same run          4.90 s  1.72 s
 =====================  ======  ======  =====  =========================================
 
-On the perf3 branch a fresh ``identify`` imports scipy.linalg and scipy.special (``chdtri``)
-and nothing else heavy: no scipy.optimize (the pole search's trust-region reflective least
-squares is :mod:`sdctrl._lib.boundlsq`, scipy's algorithm with the same iterates; the package
-import pulled shgo, linprog, scipy.spatial and scipy.constants, 0.16 s unloaded, 0.4-0.6 s
-under load), control, matplotlib, cvxpy, scipy.stats/signal, pyuff nor tqdm
-(``tests/test_lazy_imports.py``).  Left on that path: scipy.linalg (0.1-0.25 s, QR and
-triangular solves of the fit) and scipy.special (0.05-0.2 s, one ``chdtri`` per significance
-test); the rest of the fresh figure is the fit itself.
+A fresh ``identify`` imports scipy.linalg, scipy.special (``chdtri``) and scipy.optimize
+(``least_squares``; its package import pulls shgo, linprog, scipy.spatial and
+scipy.constants: 0.16 s unloaded, 0.4-0.6 s under load) and nothing else heavy: no control,
+matplotlib, cvxpy, scipy.stats/signal, pyuff nor tqdm (``tests/test_lazy_imports.py``).
+The perf3 branch reached 0.30 / 0.28 by running a copy of scipy's trust-region reflective
+solver without that import; the project does not copy public code, so it was not kept.
+An own bounded Levenberg-Marquardt on the same Gauss-Newton model (tried by the lead)
+reached the same or lower costs on every pole search but changed identification: the
+out-of-band pole loop rejects a pole that the search pushes onto its bound, and LM reaches
+the bound where scipy's method stops short of it (ladder noise-free: 15 poles and logLS
+7.7e-4 instead of 21 and 3.8e-11).  Left on that path: scipy.linalg (0.1-0.25 s) and
+scipy.special (0.05-0.2 s); the rest of the fresh figure is the fit itself.
 
 fe case (N = 100,224, 20 modes, 2 runs, load ~9-11): ``FEModel(M, K).modes(20)`` fresh 153 s,
 warm 144 s; plain ``eigsh`` fresh 271 s, warm 180 s: ratios 0.57 (fresh) and 0.80 (warm),
