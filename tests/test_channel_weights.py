@@ -46,8 +46,7 @@ def _identify(H):
 @pytest.mark.parametrize("noise,seed", [(0.0, 0), (0.01, 1), (0.01, 2), (0.01, 3)])
 def test_identify_finds_the_quiet_channel_mode(noise, seed):
     """Both modes at their frequencies and damping, no other in-band pole (before the
-    channel weights, at 1%: the weak mode missed and a pole fitted to the loud channels'
-    noise at 9.99 Hz proposed instead)."""
+    channel weights, at 1%, seeds 1-3: the 10 Hz mode only)."""
     cm = _identify(_noisy(_modes(), noise, seed))
     f = cm.frequency[cm.in_band]
     order = np.argsort(f)
