@@ -97,3 +97,14 @@ def test_weights_are_the_inverse_noise_levels():
     H0 = H.copy()
     channel_weights(H)
     np.testing.assert_array_equal(H, H0)
+
+
+def test_no_weights_without_measurable_noise():
+    """Noise-free data: second differences are the response's curvature, the fourth far
+    below them (median ratio 0.001 on the testbed family): every weight is one; the same
+    data at 1% relative noise are weighted (the weak mode's channel, whose response is
+    1000x below the others', weighs about 1000x more)."""
+    H = _modes()
+    np.testing.assert_array_equal(channel_weights(H), np.ones(40))
+    w = channel_weights(_noisy(H, 0.01, 1))
+    assert w[0] / np.median(w[1:]) > 100
