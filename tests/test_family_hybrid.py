@@ -41,9 +41,12 @@ MEASURED = {
     ('plate', 0.0): (0.00076, 0.00091, 1168.15, 12.81, 34.47, 0.0, 0.0255),
     ('plate', 0.01): (0.0015, 0.00139, 643.84, 12.65, 33.45, 0.0002, 0.0255),
     ('cluster', 0.0): (0.00035, 8e-05, 599.47, 117.19, 0.08, 0.0, 0.1113),
-    # identification misses one blade mode at 1% (10.151 Hz): its figures are locked as
-    # they come (the identification issue, not the hybrid's)
-    ('cluster', 0.01): (1.02908, 1.02822, 0.21, 0.21, 0.11, 0.0008, 0.1113),
+    # identification finds the 5 modes at 1% since the pole search weighs each channel by its
+    # noise level (before: 4, and 1.02908, 1.02822, 0.21, 0.21, 0.11, 0.0008), but one blade
+    # mode (10.287 Hz) cannot be made a normal mode and stays residual dynamics (nm 0.94): its
+    # figures are locked as they come (the normal-mode issue, not the hybrid's); the
+    # untested shaker fell 0.11 -> 0.048x and the D-strut RMS error rose 0.08% -> 0.25%
+    ('cluster', 0.01): (0.37521, 0.9417, 0.57, 0.58, 0.048, 0.0025, 0.1113),
 }
 #: the representation ``residual="auto"`` chose, per member (both noise levels, the hybrid of
 #: every shaker and that of all but the last): on every member the held-out predictions of the
@@ -54,13 +57,16 @@ MEASURED = {
 #: residual dynamics, E and F reproduce the identified model at the tested I/O (nominal
 #: 1e-5 against 0.008-0.34 for "identified"): "tested" everywhere
 CHOSEN = {name: "tested" for name in ("truss", "truss_high", "ladder", "plate", "cluster")}
+#: but the cluster at 1% with every shaker: "fe" (held-out 0.763 against 0.827; with 5
+#: identified modes, one left residual by the normal-mode step, both are poor)
+CHOSEN_AT = {("cluster", 0.01, "all"): "fe"}
 _ALL = {(n, x) for n in CHOSEN for x in (0.0, 0.01)}
 #: where each (member, noise) stands against the issue's targets (asserted where met; the
 #: gaps, locked above, are the open part of issue 22): the cluster's untested
 #: shaker 0.08x/0.11x (the test without that shaker identifies two of the four blade modes;
 #: the other two come from the FE, and at the sensors of the other blades the response is
-#: a near-cancellation of the four); at 1% the cluster's D-strut and broken strut 0.21x
-#: (a blade mode missed by identification)
+#: a near-cancellation of the four); at 1% the cluster's D-strut and broken strut 0.57x /
+#: 0.58x (a blade mode identified but left residual by the normal-mode step)
 TARGETS = {
     "dstrut": _ALL - {("cluster", 0.01)},
     "broken": _ALL - {("cluster", 0.01)},
@@ -113,14 +119,15 @@ def _check(got, ref, key, targets):
     assert got.rms_hybrid <= 1.5 * ref[5] + 1e-3
 
 
-def _check_choice(model, name, how):
+def _check_choice(model, name, how, expected=None):
     """The recorded choice follows the rule of :func:`sdctrl.hybrids._auto.choose_residual`
     and its scores."""
+    expected = CHOSEN[name] if expected is None else expected
     r = model.construction.residual
     print(f"  {how}: {r.representation}, held-out logLS "
           f"{ {k: round(v, 4) for k, v in r.loo_scores.items()} }, nominal "
           f"{ {k: round(v, 5) for k, v in r.nominal_scores.items()} }")
-    assert r.chosen_by == how and r.representation == CHOSEN[name]
+    assert r.chosen_by == how and r.representation == expected
     assert set(r.loo_scores) == set(r.nominal_scores) == {"identified", "tested", "fe"}
     assert np.all(np.isfinite(list(r.loo_scores.values())))
     low = min(r.loo_scores.values())
@@ -130,7 +137,7 @@ def _check_choice(model, name, how):
     # away from the tested I/O "tested" is "identified" (same modes): one score
     assert r.loo_scores["tested"] == r.loo_scores["identified"]
     # the FE's own frequencies predict the held-out channels worse than kappa-scaled ones
-    assert r.loo_scores["fe"] >= r.loo_scores["identified"]
+    assert (r.loo_scores["fe"] >= r.loo_scores["identified"]) == (expected != "fe")
     assert r.held_out.size == min(6, model.na if how.endswith("actuator-out") else model.ns)
 
 
@@ -142,14 +149,15 @@ def test_hybrid_predictions_locked_per_member(name, noise):
         warnings.simplefilter("ignore")
         got = figures(st, nm, h, h_minus)
     print(f"\n{name} {noise}: {got}")
-    _check_choice(h, name, "leave-one-actuator-out")
+    chosen = CHOSEN_AT.get((name, noise, "all"), CHOSEN[name])
+    _check_choice(h, name, "leave-one-actuator-out", chosen)
     _check_choice(h_minus, name, "leave-one-actuator-out" if h_minus.na >= 2
-                  else "leave-one-sensor-out")
+                  else "leave-one-sensor-out", CHOSEN_AT.get((name, noise, "minus")))
     _check(got, MEASURED[(name, noise)], (name, noise), TARGETS)
     if (name, noise) in NOMINAL:                              # no worse than the normal-mode model
         # 1e-4: the floor of the E term carried 30x above the band
         assert got.nominal <= 1.02 * got.nm + 1e-4
-    if CHOSEN[name] == "tested":
+    if chosen == "tested":
         # the tested I/O keeps the test: nm's residual dynamics bit for bit, E, F
         if nm.residual is not None:
             m = nm.residual.m
@@ -169,7 +177,8 @@ DEFAULT_MEASURED = {
     'truss_high': (0.0282, 0.00405, 54.74, 4.6, 19.79, 0.0068),
     'ladder': (0.0195, 0.00184, 79.81, 67.15, 27.18, 0.0002),
     'plate': (0.027, 0.00139, 36.44, 9.62, 33.45, 0.0008),
-    'cluster': (0.6769, 1.02822, 0.31, 0.32, 0.11, 0.003),
+    'cluster': (0.31365, 0.9417, 0.68, 0.68, 0.048, 0.0024),   # before 5 modes: 0.6769,
+    # 1.02822, 0.31, 0.32, 0.11, 0.003
 }
 _MET = {"truss", "truss_high", "ladder", "plate"}
 DEFAULT_TARGETS = {"dstrut": _MET, "broken": _MET, "shaker": _MET, "rms": _MET}

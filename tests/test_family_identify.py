@@ -2,22 +2,24 @@
 level so that no change trades one structure for another: the number of in-band modes found
 against the true structure's, and the mean logLS of the identified model against the exact
 (noise-free) response.  The issue's targets (within 2x the noise floor; noise-free <= 0.01)
-are asserted where met; the gap is the open identification part of issue 22 (the cluster's
-weakest blade mode at 1% noise).
+are asserted where met (every member, noise-free and at 1%).
 
 The noise floor: no figure of this file is the data's own floor, logLS(exact, noisy) = 5e-5
 at 1% (``E ln^2|1 + 0.01 e| = 0.01^2/2``, every member); the floor of the estimator is the
 logLS (against the exact response) of the least-squares residues fitted to the noisy data
 at the exact poles within a factor 4 of the band edges, seeds 1/2/3: truss 0.0024/0.0014/
 0.0014, truss_high 0.0007/0.0004/0.0005, ladder 0.0011/0.0014/0.0016, plate 0.0003/0.0003/
-0.0002, cluster 0.017/0.019/0.018 (identified: 0.5-4.7x that floor; the cluster 17x).
-The cluster at 1% (0.30): without the 10.151 Hz blade mode the exact-pole fit gives 0.10,
-with the identified in-band poles and the exact out-of-band ones 0.12, both 0.03: the weak
-mode and the out-of-band modes above the band (68-75 Hz, found noise-free) are missed.
-Both are far above the noise on their own channels (the blade mode 600x at its peak,
-damping 0.00263 +- 0.00068 at the exact poles) but not in the unweighted cost the
-significance test measures: held at its exact pole it lowers the cost by 60% and scores
-0.06x its threshold, whose noise is that of the loudest channels at the cluster's peak.
+0.0002, cluster 0.017/0.019/0.018.  At seed 1 every member but the truss (2.4x, as before)
+is within 2x its floor.
+The cluster at 1% was 0.30 with 4 modes: its 10.151 Hz blade mode, seen on its own blade's
+channels only, was lost three ways.  The pole search and the significance test summed the
+channels unweighted (at its exact pole the mode scored 0.29x the pooled threshold, 156x on
+its blade's channel), compression to 40 of the 44 channels mixed the loud channels' noise
+into every column (there: 1.3x), and the direct noise field held the model's error (the
+modes above the band not fitted yet): up to 10^4 times the noise on some channels, while
+second differences measured it within 25%.  Each channel is now divided by its noise level
+in the pole search (``identification._compression.channel_weights``) and in-band poles meet
+the second-difference field when the noise is independent between lines.
 """
 
 import warnings
@@ -35,16 +37,25 @@ from sdctrl.updating import logls
 #: The cluster's close modes are found by the local rank of the data and a zoomed LSCF
 #: (identification/_zoom.py); before: 3 modes / 1.2651 noise-free, 1 / 1.6672 at 1%.  Seeds 2
 #: and 3 at 1% (not locked here): 4 modes, 0.33 / 0.31 since the last pole of a window with
-#: modes is held and the scan meets the second-difference field (before: 1 mode, 1.69 / 1.67)
+#: modes is held and the scan meets the second-difference field (before: 1 mode, 1.69 / 1.67).
+#: Since the pole search divides each channel by its noise level and in-band poles meet the
+#: second-difference field when the noise is independent between lines: the cluster at 1%
+#: finds its 5 modes, 0.0299 / 0.0295 / 0.0197 (seeds 1/2/3; before 4 modes, 0.30 / 0.33 /
+#: 0.31); truss 1% 0.0056 -> 0.0057, truss_high 1% 0.0009 -> 0.0005, plate 1% 0.0008 ->
+#: 0.0003; the ladder 1% 0.0011 -> 0.0019 (seeds 2/3: 0.0007 -> 0.0014, 0.0016 -> 0.0021,
+#: within 1.0-1.7x its floor).  Noise-free data are not weighted (no measurable noise) and
+#: keep their figures (weighted by their curvature, the ladder's went 2e-5 -> 0.0012)
 MEASURED = {
     ("truss", 0.0): (12, 0.0043), ("truss", 0.01): (12, 0.0056),
-    ("truss_high", 0.0): (6, 2e-5), ("truss_high", 0.01): (6, 0.0009),
-    ("ladder", 0.0): (12, 2e-5), ("ladder", 0.01): (12, 0.0011),
-    ("plate", 0.0): (5, 0.0007), ("plate", 0.01): (5, 0.0008),
-    ("cluster", 0.0): (5, 0.0001), ("cluster", 0.01): (4, 0.3025),
+    ("truss_high", 0.0): (6, 2e-5), ("truss_high", 0.01): (6, 0.0005),
+    ("ladder", 0.0): (12, 2e-5), ("ladder", 0.01): (12, 0.0019),
+    ("plate", 0.0): (5, 0.0007), ("plate", 0.01): (5, 0.0003),
+    ("cluster", 0.0): (5, 0.0001), ("cluster", 0.01): (5, 0.0299),
 }
 #: members meeting the noise-free target (<= 0.01)
 NOISE_FREE_OK = {"truss", "truss_high", "ladder", "plate", "cluster"}
+#: the estimator's noise floor at 1% (seed 1, module notes) of the members within 2x of it
+FLOOR = {"truss_high": 0.0007, "ladder": 0.0011, "plate": 0.0003, "cluster": 0.017}
 
 
 def _true_in_band(st) -> int:
@@ -69,3 +80,5 @@ def test_identification_locked_per_member(name, noise):
     assert err <= 1.5 * ref + 1e-4
     if noise == 0.0 and name in NOISE_FREE_OK:
         assert err <= 0.01
+    if noise > 0.0 and name in FLOOR:
+        assert err <= 2.0 * FLOOR[name]

@@ -4,7 +4,11 @@ All sensors and actuators are fitted together with a common set of poles.  For g
 poles the residues and the asymptotic terms solve the linear least-squares problem
 (3.15)-(3.16) (:mod:`~sdctrl.identification._residues`); the poles are updated by the
 gradient (3.19) or by variable projection (:mod:`~sdctrl.identification._search`) on data
-compressed to their dominant column space (:mod:`~sdctrl.identification._compression`).
+compressed to their dominant column space (:mod:`~sdctrl.identification._compression`);
+with no poles given and noise independent between lines (no recorded window), each
+channel divided by its noise level first (:func:`~sdctrl.identification._compression.
+channel_weights`: a mode seen on a few quiet channels is not lost in the noise of the
+loud ones; the residues, solved per channel, do not change).
 With no poles given, the initial poles are the stable poles of an algebraic LSCF
 estimator merged with peak candidates (:mod:`~sdctrl.identification._initial`), and the
 automatic selection (:mod:`~sdctrl.identification._selection`) adds, removes and tries
@@ -30,7 +34,7 @@ import numpy as np
 from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array
-from sdctrl.identification._compression import compressed_data
+from sdctrl.identification._compression import channel_weights, compressed_data
 from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
 from sdctrl.identification._initial import (
     initial_candidates,
@@ -222,7 +226,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         normH2 = float(np.sum(Hm.real**2) + np.sum(Hm.imag**2))
         p_guess = npp * (w0.size + 6) + sum(asym)
         rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
-        Y, V, rank = compressed_data(Hm, rank, seed)
+        cw = channel_weights(Hm) if auto and selection_rules(data).smooth_scan else None
+        Y, V, rank = compressed_data(Hm if cw is None else Hm * cw, rank, seed)
         info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
                 "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
         if V is not None:
@@ -242,7 +247,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             if auto:
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
-                                    _noise_shape(data, Hm, V),
+                                    _noise_shape(data, Hm, V, cw),
                                     rules=selection_rules(data))
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
@@ -392,12 +397,13 @@ def _given_poles(poles, in_band, fband):
     return w0, z0, side
 
 
-def _noise_shape(data, Hm, V):
-    """Point variance (3.59), up to a scale, on the search's data columns (None without
-    coherence)."""
+def _noise_shape(data, Hm, V, cw=None):
+    """Point variance (3.59), up to a scale, on the search's (weighted) data columns (None
+    without coherence)."""
     if data.coherence is None:
         return None
     pv = np.abs(Hm) ** 2 * (1.0 - data.coherence.reshape(Hm.shape))
+    pv = pv if cw is None else pv * cw**2
     return pv if V is None else pv @ V**2
 
 

@@ -5,10 +5,10 @@ For a trial pole on a grid of lines (four damping levels, half-power bandwidths 
 parameters, ``||(G_p^T G_p)^-1/2 G_p^T r||^2`` with ``G_p`` its basis orthogonalised against
 the current one, is compared with the significance threshold of
 :class:`~sdctrl.identification._noise.NoiseTest` (noise level from the running median of
-the residual; or, when the selection finds nothing else and the noise is independent
-between lines, of its second differences, so that the residual of close modes not
-fitted yet, smooth over the lines around them, is not taken for the noise that hides
-them: a cluster fitted by one pole showed no candidate against the direct field).  Local
+the residual; or, when the noise is independent between lines, of its second
+differences, so that the residual of modes not fitted yet, smooth over the lines, is
+not taken for the noise that hides them: a cluster fitted by one pole showed no
+candidate against the direct field).  Local
 maxima above the threshold are the candidates, strongest first, one per half-power band;
 each is then judged by the significance test of the selection like any pole.
 

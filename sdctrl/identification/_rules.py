@@ -10,10 +10,10 @@ Two kinds of FRF call for different rules, and the data say which they are:
   retried once the model has changed; close modes are looked for by the local rank of
   the data (3.20)-(3.22, :mod:`~sdctrl.identification._zoom`) and the last pole of a
   window where the data show modes is not removed as insignificant (a pole standing for
-  several close modes meets their residual as noise); when neither the residual scan nor
-  the zoom finds a mode, the scan is repeated against the second-difference noise field
-  (the residual of unfitted close modes, smooth over the lines around them, is no
-  noise); poles the last fit pushed to a bound are dropped at the end;
+  several close modes meets their residual as noise); every test meets the lower,
+  second-difference, noise field whenever the data show noise independent between
+  lines (the residual of unfitted modes, smooth over the lines, is no noise); poles the
+  last fit pushed to a bound are dropped at the end;
 * an FRF measured through an exponential window (``frf.exponential_tau``) has noise
   correlated between lines (``c_k = 1/(1 + i pi k tau df)``, 0.8 between neighbours on a
   hammer survey), which second differences and a local rank take for signal (a simulated
@@ -55,10 +55,10 @@ class SelectionRules:
         Look for close modes by the local rank of the data and a zoomed LSCF, and keep
         the last pole of a window where the data show modes.
     smooth_scan : bool
-        When the residual scan (direct noise field) and the zoom find nothing, repeat the
-        scan against the noise field of second differences if the data show noise
-        independent between lines (:meth:`~sdctrl.identification._noise.NoiseTest.
-        independent`: an FRF of windowed records may not record its window).
+        Every test (significance, residual scan, zoom) meets the noise field of second
+        differences (the lower of the two fields) when the data show noise independent
+        between lines (:meth:`~sdctrl.identification._noise.NoiseTest.independent`: an
+        FRF of windowed records may not record its window); else the direct field.
     final_prune : bool
         Drop, after the last fit, poles pushed to a bound.
     """

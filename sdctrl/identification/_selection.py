@@ -13,9 +13,10 @@ significant, so that the fit reaches the noise whatever lies outside the band (s
 suspension and plate modes below a band, modes just outside both edges).  Out-of-band
 poles are judged against the noise field that excludes residuals smooth in frequency
 (second differences, :func:`~sdctrl.identification._noise.noise_field`), in-band poles
-against the direct field.  A residual-scan candidate that was rejected is excluded
-(1.5 lines around it) only until the model changes: a close mode hidden while its
-neighbour was not fitted is proposed again.  Both sides
+too when the data show noise independent between lines, else the direct field.  A
+residual-scan candidate that was rejected is excluded (1.5 lines around it) only until
+the model changes: a close mode hidden while its neighbour was not fitted is proposed
+again.  Both sides
 are tried before the first removal of insignificant poles: the significance test takes
 the residual for noise, and the tail of a mode just outside the band inflates it over
 the whole band (a lightly damped mode at the other end of the
@@ -91,6 +92,7 @@ class AutoSelection:
         self.noise = NoiseTest(prob, significance, shape)
         self.rules = INDEPENDENT if rules is None else rules
         self.noise.floor = self.rules.floor * prob.normY2
+        self.noise.lower_when_independent = self.rules.smooth_scan
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log = []
         self.warn = warn
@@ -468,9 +470,6 @@ class AutoSelection:
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
             new = (self._add_missed(state, cand) if cand else None) or self._close_modes(state)
-            if new is None and self.rules.smooth_scan and self.noise.independent(ev):
-                cand = self.scan.candidates(ev, self.tried, smooth=True)  # 2nd differences
-                new = self._add_missed(state, cand) if cand else None
             if new is None:
                 break
             state = self.best = new
