@@ -109,7 +109,10 @@ def _sampled_variance(cm, stats, C0, nm, transform, n_samples=None, seed=0):
     for a in range(n2):
         e = np.zeros(n2)
         e[a] = 1.0
-        T_theta[:, a] = slope(e, zero_c, np.sqrt(stats.S[a, a]) or 1e-9 * np.abs(theta0).max())
+        size = np.sqrt(stats.S[a, a]) or 1e-9 * np.abs(theta0).max()
+        if a % 2 == 0 and theta0[a] + STEP * size >= 0:  # a pole at the damping floor
+            size = -size                                 # stays stable (as in _jacobian)
+        T_theta[:, a] = slope(e, zero_c, size)
         for out, blk in ((Z, stats.M), (Y, stats.K)):
             d = blk[:, :, a].T                                          # (q, m)
             norm = float(np.sqrt(np.mean(d**2)))
