@@ -29,6 +29,21 @@ settings.register_profile(
 settings.load_profile(os.environ.get("SDCTRL_HYPOTHESIS_PROFILE", "ci"))
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _one_blas_thread_per_xdist_worker():
+    """Under pytest-xdist (``-n 2``: one worker per core), each worker's BLAS runs on one
+    thread, so that two workers do not each start a BLAS thread per core on a machine whose
+    cores they already fill; scoped to the session and restored at its end.  A run without
+    xdist keeps the process's own setting."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        yield
+        return
+    import scipy.linalg  # noqa: F401  (scipy's own BLAS loaded, so that the limit covers it)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
 
 class Hang(Exception):
     """A call outlived its deadline (raised by the ``deadline`` fixture's guard)."""
