@@ -155,7 +155,7 @@ def _proposals(inner, placed, H, S, executor, progress):
     if free is not None:
         props.append(free)
     if isinstance(inner, NormalModeModel):
-        npd = fit_nonproportional(placed, inner, placed.rows, placed.cols)
+        npd = fit_nonproportional(placed, inner, placed.rows, placed.cols, H)
         if npd is not None:
             props.append(npd)
     if S is not None:
