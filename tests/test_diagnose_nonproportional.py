@@ -97,3 +97,15 @@ def test_null_case_adds_nothing(coupled):
         cands = {c["kind"]: c for c in d.steps[0]["candidates"]}
         npd = cands["nonproportional_damping"]
         assert npd["k"] == 3 and npd["false_alarm"] > 1e-3
+
+
+def test_with_effects_rebuilds_the_corrected_model():
+    """``Diagnosis.with_effects``: every effect gives :attr:`model`, none the input model; a
+    bad index is refused."""
+    true, base, _ = models()
+    d = sd.diagnose(base, _data(true), progress=False)
+    f = FREQ[::7]
+    assert np.allclose(d.with_effects([0]).frf(f).H, d.model.frf(f).H, rtol=1e-12, atol=0)
+    assert np.array_equal(d.with_effects([]).Gamma, base.Gamma)
+    with pytest.raises(ValueError, match="which"):
+        d.with_effects([1])
