@@ -141,7 +141,7 @@ class Diagnosed:
 
     @property
     def changes(self) -> list:
-        """The effects that explain the second test and not the first: the change."""
+        """The effects of the change: those that are not prior model errors."""
         prior = set() if self.first is None else set(self.first.prior)
         return [e for k, e in enumerate(self.diagnosis.effects) if k not in prior]
 
@@ -176,7 +176,8 @@ class Diagnosed:
 
     @property
     def prior(self) -> list:
-        """The effects that also explain the first test: model errors before the change."""
+        """The prior model errors (:attr:`FirstTest.prior`): effects within the model's own
+        error on the first test, not the change."""
         return [] if self.first is None else [self.diagnosis.effects[k]
                                               for k in self.first.prior]
 
