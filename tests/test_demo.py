@@ -180,6 +180,17 @@ def test_diagnosis_names_the_planted_effect(demo):
     step = demo["steps"]["diagnosis"]
     assert step["status"] == "ok", step["message"]
     num = step["numbers"]
+    # exactly the change: effects within the model's own error on the first test (they
+    # remove less than it from the second test, or lower it when applied alone) are prior
+    # model errors, not the change
+    assert num["changes"] == [{"kind": "mass_change", "location": ["N14"]}], num
+    first = num["first_test"]
+    alone, removed = first["error_with_each_effect"], first["error_removed_from_second_test"]
+    assert len(alone) == len(removed) == len(num["changes"]) + len(num["prior_errors"])
+    for k in range(len(alone)):
+        prior = alone[k] < first["error"] or removed[k] <= first["error"]
+        assert prior == (k in first["prior"])
+    assert num["error_after"] <= num["error_after_all_effects"] + first["error"]
     assert num["kind"] == "mass_change"
     assert any(lab.split(".")[0] == "N14" for lab in num["location"])
     assert num["parameters"]["dm"] == pytest.approx(1.0, rel=0.05)

@@ -106,7 +106,9 @@ def _diagnosis_worker(test, upd):
 def _start_diagnosis(test, upd):
     """Start step 8 in a second (forked) process, beside steps 5-7 that do not need it: the
     story's wall time is then about the longer of the two branches on a machine with two
-    cores.  ``(executor, future)``, or None when the step cannot run there (no ``fork`` or
+    cores.  Its inputs -- the updated model of step 4, and the first test its effects are
+    weighed against (prior model errors or the change) -- exist once step 4 is done.
+    ``(executor, future)``, or None when the step cannot run there (no ``fork`` or
     no ``sdctrl.diagnose``): it then runs in turn."""
     import multiprocessing
 

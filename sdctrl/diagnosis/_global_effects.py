@@ -14,8 +14,10 @@
   zeta)`` are searched from the peaks of the residual;
 - ``nonproportional_damping``: the coupling terms ``Gamma_ij`` (rad/s) between close modes
   that a diagonal (proportional) ``Gamma`` lacks (3.3, 5.1.1), by Gauss-Newton on the complex
-  logLS residual, the gradient coming from the model's transfers
-  ``dH / dGamma_ij = -s (X_y,i X_u,j + X_y,j X_u,i)``.
+  logLS residual.  The response is ``H = C Z(s)^-1 B`` (2.15), ``Z = s^2 I + s Gamma +
+  Omega``, and with the transfers ``X_y = C Z^-1`` (ns, n) and ``X_u = Z^-1 B`` (n, na) its
+  derivative is ``dH / dGamma_ij = -s C Z^-1 (e_i e_j^T + e_j e_i^T) Z^-1 B = -s (X_y,i X_u,j
+  + X_y,j X_u,i)`` (the pair ``ij``/``ji`` is one parameter).
 
 Each fit returns a *proposal*: a plain dict (kind, location, parameters, cost, number of
 parameters ``k``, number of hypotheses ``m`` of its family, and what :mod:`.apply` needs).
@@ -330,22 +332,33 @@ def _coupled_pairs(Omega, Gamma, fmin, fmax):
     return out
 
 
-def fit_nonproportional(placed, model, rows, cols) -> dict | None:
+def fit_nonproportional(placed, model, rows, cols, H=None) -> dict | None:
     """Coupling terms ``Gamma_ij`` between close modes, by Gauss-Newton on the complex logLS.
+
+    The model's response on the data channels is ``C Z(s)^-1 B + H_rest`` (2.15), ``Z(s) =
+    s^2 I + s Gamma + Omega``; ``H_rest`` (the ``E + F / s^2`` terms and any residual
+    dynamics) does not depend on ``Gamma`` and is kept as it is in the model's response.
+    Each step solves the normal equations of the linearised logLS (3.12) with ``dH /
+    dGamma_ij = -s (X_y,i X_u,j + X_y,j X_u,i)`` (module notes), halving the step until the
+    cost decreases.
 
     Parameters
     ----------
     placed : Placed
         The data.
     model : NormalModeModel
-        Current model (its ``E``/``F`` terms are kept).
+        Current model.
     rows, cols : ndarray of int
         Model sensors/actuators of the data channels.
+    H : ndarray, shape (nf, ns, na), optional
+        The model's displacement response on ``placed`` (computed when not given).
 
     Returns
     -------
     dict or None
-        Proposal with ``parameters = {"Gamma_i_j": rad/s}`` (1-based mode numbers).
+        Proposal with ``parameters = {"Gamma_i_j": rad/s}`` (1-based mode numbers, the
+        change of the model's ``Gamma_ij``), ``k`` the number of pairs; None when the model
+        has no close pair in the band (or a coupled ``Omega``).
     """
     if np.count_nonzero(model.Omega - np.diag(np.diag(model.Omega))):
         return None
@@ -353,36 +366,26 @@ def fit_nonproportional(placed, model, rows, cols) -> dict | None:
     if not pairs:
         return None
     s, Hd = placed.s, placed.Hd
+    Omega, Gamma0 = np.asarray(model.Omega, float), np.asarray(model.Gamma, float)
     C, B = np.asarray(model.cphi)[rows], np.asarray(model.phib)[:, cols]
-    extra = placed.static_part(model)
-    n = model.n
+    eye = np.eye(model.n)
+    H0 = placed.response(model) if H is None else H
+    rest = H0 - Resolvent.of(Omega, Gamma0).transfer(s, C.T, B)   # E + F/s^2 + residual
 
     def response(G):
-        R = Resolvent.of(model.Omega, G)
-        Xy = R.transfer(s, C.T, np.eye(n))                    # (nf, ns, n)
-        Xu = R.transfer(s, np.eye(n), B)                      # (nf, n, na)
-        return Xy @ Xu + extra, Xy, Xu
+        R = Resolvent.of(Omega, G)
+        Xy = R.transfer(s, C.T, eye)                          # C Z^-1, (nf, ns, n)
+        Xu = R.transfer(s, eye, B)                            # Z^-1 B, (nf, n, na)
+        return Xy @ B + rest, Xy, Xu
 
-    G = np.array(model.Gamma, float)
-    H, Xy, Xu = response(G)
-    J0 = J = cost(H, Hd)
-    x = np.zeros(len(pairs))
     I, K = (np.array(v) for v in zip(*pairs))
-    for _ in range(GN_STEPS):
-        r = complex_residual(H, Hd).reshape(-1)
-        # dH/dGamma_ij / H for every pair at once, (nf, ns, na, p)
-        sH = (-s[:, None, None] / H)[..., None]
-        Jm = (np.einsum("fsp,fpa->fsap", Xy[:, :, I], Xu[:, K, :])
-              + np.einsum("fsp,fpa->fsap", Xy[:, :, K], Xu[:, I, :])) * sH
-        Jm = Jm.reshape(-1, len(pairs))
-        # normal equations: the Jacobian is tall (lines x channels) and narrow
-        JtJ = (Jm.conj().T @ Jm).real
-        JtJ += 1e-12 * np.trace(JtJ) / JtJ.shape[0] * np.eye(JtJ.shape[0])
-        step = np.linalg.lstsq(JtJ, -(Jm.conj().T @ r).real, rcond=None)[0]
+    x, G = np.zeros(len(pairs)), Gamma0.copy()
+    Hc, Xy, Xu = response(G)
+    J0 = J = cost(Hc, Hd)
+    for it in range(GN_STEPS):
+        step = _gamma_step(s, Hc, Hd, Xy, Xu, I, K)
         for _half in range(8):
-            Gt = G.copy()
-            for (i, j), v in zip(pairs, x + step):
-                Gt[i, j] = Gt[j, i] = model.Gamma[i, j] + v
+            Gt = _with_pairs(Gamma0, I, K, x + step)
             Ht, Xyt, Xut = response(Gt)
             Jt = cost(Ht, Hd)
             if Jt < J:
@@ -390,9 +393,32 @@ def fit_nonproportional(placed, model, rows, cols) -> dict | None:
             step = 0.5 * step
         else:
             break
-        x, G, H, Xy, Xu, J = x + step, Gt, Ht, Xyt, Xut, Jt
-        if J > (1 - 1e-4) * J0 and _ == 0:
+        done = Jt > (1 - 1e-9) * J
+        x, G, Hc, Xy, Xu, J = x + step, Gt, Ht, Xyt, Xut, Jt
+        if done or (it == 0 and J > (1 - 1e-4) * J0):
             break
     params = {f"Gamma_{i + 1}_{j + 1}": float(v) for (i, j), v in zip(pairs, x)}
     return proposal("nonproportional_damping", None, params, J, len(pairs), 1, "gamma",
-                    {"dGamma": G - np.asarray(model.Gamma)})
+                    {"dGamma": G - Gamma0})
+
+
+def _with_pairs(Gamma0, I, K, x):
+    """``Gamma0`` with ``x`` added to the symmetric pairs ``(I, K)``."""
+    G = Gamma0.copy()
+    G[I, K] += x
+    G[K, I] += x
+    return G
+
+
+def _gamma_step(s, H, Hd, Xy, Xu, I, K):
+    """Gauss-Newton step of the coupling terms: the normal equations of the linearised
+    complex logLS, ``d Log H / dGamma_ij = dH / dGamma_ij / H`` for every pair at once."""
+    r = complex_residual(H, Hd).reshape(-1)
+    sH = (-s[:, None, None] / H)[..., None]
+    Jm = (np.einsum("fsp,fpa->fsap", Xy[:, :, I], Xu[:, K, :])
+          + np.einsum("fsp,fpa->fsap", Xy[:, :, K], Xu[:, I, :])) * sH
+    Jm = Jm.reshape(-1, I.size)
+    # the Jacobian is tall (lines x channels) and narrow (pairs)
+    JtJ = (Jm.conj().T @ Jm).real
+    JtJ += 1e-12 * np.trace(JtJ) / JtJ.shape[0] * np.eye(JtJ.shape[0])
+    return np.linalg.lstsq(JtJ, -(Jm.conj().T @ r).real, rcond=None)[0]

@@ -155,7 +155,7 @@ def _proposals(inner, placed, H, S, executor, progress):
     if free is not None:
         props.append(free)
     if isinstance(inner, NormalModeModel):
-        npd = fit_nonproportional(placed, inner, placed.rows, placed.cols)
+        npd = fit_nonproportional(placed, inner, placed.rows, placed.cols, H)
         if npd is not None:
             props.append(npd)
     if S is not None:
@@ -372,7 +372,8 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
     if cand is not None:
         info["candidates"] = {k: g.size for k, g in cand[1].items()}
         info["n_elements"] = cand[2]
-    return Diagnosis(current, effects, J0, J, model, placed0.frf, sigma2, steps, info)
+    return Diagnosis(current, effects, J0, J, model, placed0.frf, sigma2, steps, info,
+                     applied=tuple(accepted))
 
 
 def _effects(model, accepted, errors, J0, placed0, sigma2):

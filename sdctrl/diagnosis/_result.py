@@ -163,6 +163,22 @@ class Effect:
         return 1.0 - self.error_after / self.error_before if self.error_before > 0 else 0.0
 
 
+def _sized(prop, model):
+    """A non-proportional damping proposal cut (or padded) to the modes of ``model``."""
+    if prop["action"] != "gamma":
+        return prop
+    from sdctrl.diagnosis._apply import DelayedModel
+
+    inner = model.model if isinstance(model, DelayedModel) else model
+    dG, n = np.asarray(prop["payload"]["dGamma"]), np.asarray(inner.Gamma).shape[0]
+    if dG.shape[0] == n:
+        return prop
+    out = np.zeros((n, n))
+    m = min(n, dG.shape[0])
+    out[:m, :m] = dG[:m, :m]
+    return dict(prop, payload=dict(prop["payload"], dGamma=out))
+
+
 @dataclass(frozen=True, eq=False)
 class Diagnosis:
     """Result of :func:`sdctrl.diagnose`.
@@ -196,6 +212,10 @@ class Diagnosis:
         What :func:`sdctrl.diagnose` built to place the given model on the FE model (a
         hybrid model of a model without shapes), or why it could not; None when the model
         was used as given.
+    applied : tuple of dict
+        The fitted effects as :func:`sdctrl.diagnose` applies them (plain data, one per
+        entry of :attr:`effects`, their sizes jointly refitted): what
+        :meth:`with_effects` applies.
     """
 
     model: object
@@ -208,6 +228,7 @@ class Diagnosis:
     steps: list = field(default_factory=list)
     info: dict = field(default_factory=dict, repr=False)
     built: str | None = None
+    applied: tuple = ()
 
     def __post_init__(self):
         if not all(isinstance(e, Effect) for e in self.effects):
@@ -249,6 +270,43 @@ class Diagnosis:
         placed = place(model, self.frf)
         return residual_map(placed.freq, placed.response(model), placed.Hd,
                             placed.sensors, placed.actuators, self.noise)
+
+    def with_effects(self, which) -> object:
+        """The input model with some of the effects only, at their fitted sizes.
+
+        Parameters
+        ----------
+        which : iterable of int
+            Indices into :attr:`effects` (applied in the order found).
+
+        Returns
+        -------
+        model
+            :attr:`initial` with those effects added (all of them: :attr:`model` up to
+            round-off).  Non-proportional damping fitted on a model that an earlier effect
+            extended (static correction modes of a load, an extra mode) keeps its terms
+            between the modes of the model it is applied to.
+
+        Raises
+        ------
+        ValueError
+            An index out of range, or a diagnosis without its fitted effects.
+        """
+        from sdctrl.diagnosis._apply import DelayedModel, apply_effect
+        from sdctrl.diagnosis._placed_data import place
+
+        keep = sorted({int(k) for k in which})
+        if any(k < 0 or k >= len(self.effects) for k in keep):
+            raise ValueError(f"which must hold indices of effects (0 to "
+                             f"{len(self.effects) - 1}), got {keep}")
+        if len(self.applied) != len(self.effects) or self.initial is None:
+            raise ValueError("with_effects: this diagnosis does not carry its fitted effects")
+        model = self.initial
+        inner = model.model if isinstance(model, DelayedModel) else model
+        placed = place(inner, self.frf)
+        for k in keep:
+            model = apply_effect(model, _sized(self.applied[k], model), placed)
+        return model
 
     def table(self) -> str:
         """Markdown table of the effects added.
