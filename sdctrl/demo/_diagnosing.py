@@ -105,8 +105,15 @@ def _kinds(effects) -> str:
     """Effects in a few words."""
     if not effects:
         return "none"
-    return ", ".join(e.kind + ("" if e.location is None else f" at {e.location}")
-                     for e in effects)
+    from sdctrl.diagnosis._result import format_location
+
+    def one(e):
+        where = "" if e.location is None else f" at {format_location(e.location)}"
+        if e.kind == "missing_mode":
+            where += f" (damping {e.parameters['damping']:.3g})"
+        return e.kind + where
+
+    return ", ".join(one(e) for e in effects)
 
 
 def names_node(location, node: str) -> bool:
@@ -170,7 +177,7 @@ class Diagnosed:
         if t is None:
             return f"no effect found; error {d.error_before:.3g}"
         more = f" + {len(self.changes) - 1} other(s)" if len(self.changes) > 1 else ""
-        return (f"{t.kind} at {t.location} ({_sizes(t)}){more}; error {d.error_before:.3g} "
+        return (f"{_kinds([t])} ({_sizes(t)}){more}; error {d.error_before:.3g} "
                 f"-> {self.change_error:.3g}; prior model errors (within the model's error on "
                 f"the first test): {_kinds(self.prior)}")
 
