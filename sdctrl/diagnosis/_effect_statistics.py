@@ -7,7 +7,14 @@ covariance is ``(sigma^2 / 2) (J^T J)^-1`` with ``J`` the real stacked Jacobian
 ``[Re; Im] dr/dx`` and ``sigma^2`` the noise level of the diagnosis (the expected ``|r|^2``
 of the measurement noise alone, half on each of the real and imaginary parts).  ``J`` is
 evaluated by central differences of the corrected model itself (:func:`apply_effect`), so
-every kind of effect gets the same mechanism.  Nuisance coordinates (the modal vectors of a
+every kind of effect gets the same mechanism -- but a free extra mode's coordinates, whose
+term ``phi c b^T`` (``phi = 1 / (s^2 + 2 zeta w s + w^2)``, 2.15) adds to the response of
+everything else, are differentiated in closed form (:func:`stacked_jacobian`): ``d Log H =
+dH / H`` with ``dphi / dw = -phi^2 (2 zeta s + 2 w)``, ``dphi / dzeta = -phi^2 2 w s`` (a
+delay multiplies the term and ``H`` alike; unless coupling terms follow); so are the
+coupling terms ``Gamma_ij`` of a
+non-proportional damping effect applied last, ``dH / dGamma_ij = -s (X_y,i X_u,j + X_y,j
+X_u,i)`` (:mod:`._global_effects`).  Nuisance coordinates (the modal vectors of a
 missing mode) are fitted together with the reported sizes; sizes that are functions of the
 coordinates (a resonator's stiffness ``m w^2``, a relative stiffness change) get the
 first-order propagation of the coordinates' covariance.  Several effects accepted in one
@@ -23,9 +30,11 @@ import copy
 
 import numpy as np
 
-__all__ = ["coordinates", "effect_std", "joint_std"]
+__all__ = ["coordinates", "effect_std", "joint_std", "mode_keys", "stacked_jacobian"]
 
-#: relative difference step on each coordinate
+#: relative difference step on each coordinate (the corrected model's response is accurate
+#: to about 1e-9 relative: a forward difference's round-off error is then 1e-4 of the
+#: derivative, its truncation error about the step itself)
 STEP = 1e-5
 
 
@@ -79,38 +88,174 @@ def joint_std(props, model, placed, placed0, sigma2) -> list:
     list of dict
         One per effect, like its ``parameters``.
     """
-    from sdctrl.diagnosis._apply import apply_effect
-
     coords = [coordinates(p) for p in props]
     owner = np.concatenate([[i] * len(c) for i, c in enumerate(coords)] + [[]]).astype(int)
-    flat = [c for cs in coords for c in cs]
-    x0 = np.array([c[1] for c in flat], float)
+    x0 = np.array([c[1] for cs in coords for c in cs], float)
     if x0.size == 0:
         return [{} for _ in props]
-
-    def response(x):
-        m = model
-        for i, p in enumerate(props):
-            q = copy.deepcopy(p)
-            for (setter, _v, _g), xi in zip(coords[i], x[owner == i]):
-                setter(q["payload"], xi)
-            m = apply_effect(m, q, placed)
-        return placed0.fast_response(m)
-
-    cols = []
-    for i in range(x0.size):
-        h = STEP * max(abs(x0[i]), 1e-12)
-        xp, xm = x0.copy(), x0.copy()
-        xp[i] += h
-        xm[i] -= h
-        # Log(H+ / H-), not Log H+ - Log H-: no 2 pi jump where the phase crosses the cut
-        d = np.log(response(xp) / response(xm)).ravel() / (2 * h)
-        cols.append(np.r_[d.real, d.imag])
-    cov = _covariance(np.array(cols).T, sigma2 / 2.0)
+    evaluate = Evaluator(model, props, coords, placed, placed0)
+    cov = _covariance(stacked_jacobian(evaluate, x0), sigma2 / 2.0)
     out = []
     for i, p in enumerate(props):
         sel = np.flatnonzero(owner == i)
         out.append(_sizes(p, coords[i], x0[sel], cov[np.ix_(sel, sel)]) if sel.size else {})
+    return out
+
+
+class Evaluator:
+    """The response of ``model`` with the effects ``props`` applied in turn at coordinates
+    ``x`` (those of :func:`coordinates`, effect after effect): ``evaluate(x) -> (H, built,
+    lag)``, ``H`` on ``placed0``'s lines and channels, ``built`` the proposals at ``x``,
+    ``lag`` the delay factor ``exp(-j w tau)`` per line (None without a delay).  The last
+    evaluation is kept (a least-squares solver asks for the residual and the Jacobian at
+    the same point)."""
+
+    def __init__(self, model, props, coords, placed, placed0):
+        self.model, self.props, self.coords = model, props, coords
+        self.placed, self.placed0 = placed, placed0
+        self.owner = np.concatenate([[i] * len(c) for i, c in enumerate(coords)]
+                                    + [[]]).astype(int)
+        self._last = (None, None)
+
+    def built(self, x) -> list:
+        """Copies of the proposals with their coordinates set to ``x``."""
+        out = []
+        for i, p in enumerate(self.props):
+            q = copy.deepcopy(p)
+            for (setter, _v, _g), xi in zip(self.coords[i], x[self.owner == i]):
+                setter(q["payload"], xi)
+            out.append(q)
+        return out
+
+    def __call__(self, x):
+        x = np.asarray(x, float)
+        if self._last[0] is not None and np.array_equal(self._last[0], x):
+            return self._last[1]
+        from sdctrl.diagnosis._apply import DelayedModel, apply_effect
+
+        built, m = self.built(x), self.model
+        for q in built:
+            m = apply_effect(m, q, self.placed)
+        H = self.placed0.fast_response(m)
+        lag = (np.exp(-1j * self.placed0.omega * m.tau) if isinstance(m, DelayedModel)
+               else None)
+        self.corrected = m.model if isinstance(m, DelayedModel) else m
+        self._last = (x.copy(), (H, built, lag))
+        return H, built, lag
+
+
+def mode_keys(prop) -> list:
+    """What each coordinate of a free mode is, in :func:`coordinates`' order: ``("omega",)``,
+    ``("zeta",)``, ``("c", i)`` per data sensor, ``("b", j)`` per data actuator but the
+    largest (fixed: only ``c b^T`` is determined)."""
+    c, b = np.asarray(prop["payload"]["c"]), np.asarray(prop["payload"]["b"], float)
+    keep = np.flatnonzero(np.arange(b.size) != int(np.argmax(np.abs(b))))
+    return [("omega",), ("zeta",)] + [("c", i) for i in range(c.size)] + \
+        [("b", int(j)) for j in keep]
+
+
+def _mode_columns(payload, keys, s, H, lag):
+    """``[Re; Im] d Log H / d coordinate`` of a free mode's coordinates (module notes)."""
+    w, z = float(payload["omega"]), float(payload["zeta"])
+    c, b = np.asarray(payload["c"], float), np.asarray(payload["b"], float)
+    phi = 1.0 / (s**2 + 2 * z * w * s + w * w)
+    Q = (phi if lag is None else phi * lag)[:, None, None] / H        # dH / H per unit term
+    cb = np.outer(c, b)
+    n = H.size
+    out = np.zeros((2 * n, len(keys)), order="F")
+    for k, key in enumerate(keys):
+        re, im = out[:n, k].reshape(H.shape), out[n:, k].reshape(H.shape)     # views
+        if key[0] in ("omega", "zeta"):
+            dD = 2 * z * s + 2 * w if key[0] == "omega" else 2 * w * s
+            d = Q * (-phi * dD)[:, None, None] * cb
+            re[...], im[...] = d.real, d.imag
+        elif key[0] == "c":
+            d = Q[:, key[1], :] * b
+            re[:, key[1], :], im[:, key[1], :] = d.real, d.imag
+        else:
+            d = Q[:, :, key[1]] * c
+            re[:, :, key[1]], im[:, :, key[1]] = d.real, d.imag
+    return out
+
+
+def stacked_jacobian(evaluate, x, central: bool = True) -> np.ndarray:
+    """``[Re; Im] d Log H / dx`` at ``x`` (module notes): differences of the corrected model
+    for every coordinate but a free mode's and the coupling terms of the last effect, which
+    are in closed form.
+
+    Parameters
+    ----------
+    evaluate : Evaluator
+        The corrected model's response at given coordinates.
+    x : ndarray
+        The coordinates.
+    central : bool
+        Central differences; else forward ones (half the evaluations: for a fit's search
+        direction).
+
+    Returns
+    -------
+    ndarray, shape (2 nf ns na, x.size)
+    """
+    x = np.asarray(x, float)
+    H, built, lag = evaluate(x)
+    corrected = evaluate.corrected
+    props, owner = evaluate.props, evaluate.owner
+    n = H.size
+    out = np.empty((2 * n, x.size), order="F")
+    for k in range(x.size):
+        if _closed_form(props, k, owner):
+            continue
+        h = STEP * max(abs(x[k]), 1e-12)
+        xp, xm = x.copy(), x.copy()
+        xp[k] += h
+        xm[k] -= h if central else 0.0
+        # Log(H+ / H-), not Log H+ - Log H-: no 2 pi jump where the phase crosses the cut
+        Hm = evaluate(xm)[0] if central else H
+        d = np.log(evaluate(xp)[0] / Hm).ravel() / ((1 + central) * h)
+        out[:n, k], out[n:, k] = d.real, d.imag
+    for i, p in enumerate(props):
+        sel = np.flatnonzero(owner == i)
+        if sel.size == 0 or not _closed_form(props, sel[0], owner):
+            continue
+        if p["action"] == "mode":
+            out[:, owner == i] = _mode_columns(built[i]["payload"], mode_keys(p),
+                                               evaluate.placed0.s, H, lag)
+        else:
+            out[:, owner == i] = _gamma_columns(corrected, p, evaluate.placed0, H, lag)
+    return out
+
+
+def _closed_form(props, k, owner) -> bool:
+    """Whether coordinate ``k`` has a closed-form column: a free mode's when no coupling
+    effect follows (coupling terms may tie it to the other modes: its term is then no longer
+    additive), or a coupling term of the last effect (the corrected model's ``Gamma`` is
+    then that effect's)."""
+    i = owner[k]
+    act = props[i]["action"]
+    if act == "mode":
+        return not any(p["action"] == "gamma" for p in props[i + 1:])
+    return act == "gamma" and i == len(props) - 1
+
+
+def _gamma_columns(model, prop, placed0, H, lag):
+    """``[Re; Im] d Log H / dGamma_ij`` of the coupling terms of ``prop`` applied last to
+    the corrected ``model``: ``dH / dGamma_ij = -s (X_y,i X_u,j + X_y,j X_u,i)`` with
+    ``X_y = C Z^-1``, ``X_u = Z^-1 B`` (2.15, :mod:`._global_effects`)."""
+    from sdctrl.diagnosis._lowrank import Resolvent
+
+    s, n = placed0.s, H.size
+    C = np.asarray(model.cphi)[placed0.rows]
+    B = np.asarray(model.phib)[:, placed0.cols]
+    R = Resolvent.of(np.asarray(model.Omega, float), np.asarray(model.Gamma, float))
+    eye = np.eye(model.n)
+    Xy, Xu = R.transfer(s, C.T, eye), R.transfer(s, eye, B)
+    Q = (-s if lag is None else -s * lag)[:, None, None] / H
+    out = np.empty((2 * n, len(prop["parameters"])), order="F")
+    for k, name in enumerate(prop["parameters"]):
+        i, j = (int(t) - 1 for t in name.split("_")[1:3])
+        d = (Xy[:, :, i, None] * Xu[:, None, j, :] + Xy[:, :, j, None] * Xu[:, None, i, :]) * Q
+        out[:n, k], out[n:, k] = d.real.ravel(), d.imag.ravel()
     return out
 
 

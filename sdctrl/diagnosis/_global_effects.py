@@ -32,7 +32,7 @@ from sdctrl.diagnosis._lowrank import Resolvent
 from sdctrl.diagnosis._residual_map import complex_residual, cost
 
 __all__ = ["fit_delay", "fit_free_mode", "fit_nonproportional", "fit_residual_terms",
-           "proposal"]
+           "free_mode_region", "leaves_region", "proposal"]
 
 #: damping ratios tried at each residual peak when searching an extra mode
 ZETA_GRID = (0.001, 0.003, 0.01, 0.03)
@@ -42,6 +42,47 @@ N_PEAKS = 3
 COUPLING_BANDWIDTHS = 10.0
 #: Gauss-Newton iterations of the non-proportional damping fit
 GN_STEPS = 6
+#: a free mode's region: frequency within these factors of the band's first and last lines
+FREE_SPAN = (0.8, 1.2)
+#: ... and damping ratio within these bounds; a mode fitted onto the region's edge (within
+#: 2% of it) is a broadband trend, not a mode (never reported as one)
+FREE_DAMPING = (1e-5, 0.5)
+
+
+def free_mode_region(omega) -> tuple:
+    """``(w_lo, w_hi, zeta_lo, zeta_hi)``: where a free extra mode is searched (rad/s).
+
+    Parameters
+    ----------
+    omega : ndarray
+        The band's lines (rad/s), increasing.
+
+    Returns
+    -------
+    tuple of float
+    """
+    return (float(omega[0] * FREE_SPAN[0]), float(omega[-1] * FREE_SPAN[1])) + FREE_DAMPING
+
+
+def leaves_region(prop, omega) -> bool:
+    """Whether a proposal is a free mode fitted onto (or beyond) its region's edge.
+
+    Parameters
+    ----------
+    prop : dict
+        A proposal (any kind: only free modes can leave the region).
+    omega : ndarray
+        The band's lines (rad/s).
+
+    Returns
+    -------
+    bool
+    """
+    if prop["action"] != "mode":
+        return False
+    lo, hi, _zlo, zhi = free_mode_region(omega)
+    w, z = prop["payload"]["omega"], prop["payload"]["zeta"]
+    return bool(z >= 0.98 * zhi or not lo * 1.02 < w < hi / 1.02)
 
 
 def proposal(kind, location, parameters, cost_, k, m, action, payload) -> dict:
@@ -211,11 +252,11 @@ def fit_free_mode(placed, H) -> dict | None:
             _, c, _ = _mode_residue(placed, H, e, w[i], z)
             if best is None or c < best[0]:
                 best = (c, w[i], z)
-    lo, hi = w[0] * 0.8, w[-1] * 1.2
+    lo, hi, zlo, zhi = free_mode_region(w)
 
     def proxy(x):
         wx, zx = np.exp(x[0]), np.exp(x[1])
-        if not (lo < wx < hi and 1e-5 < zx < 0.5):
+        if not (lo < wx < hi and zlo < zx < zhi):
             return np.inf
         return _mode_residue(placed, H, e, wx, zx)[1]
 
@@ -232,14 +273,13 @@ def fit_free_mode(placed, H) -> dict | None:
     Jr = cost(H + phr[:, None, None] * np.outer(cr, br)[None], placed.Hd)
     if Jr < J:
         wm, zm, c, b, J = wr, zr, cr, br, Jr
-    if zm >= 0.98 * 0.5 or not lo * 1.02 < wm < hi / 1.02:
-        return None           # stuck at a bound: a broadband trend, not a mode (never invented)
     ns, na = X1.shape
     fr = float(wm / (2 * np.pi))
-    return proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm), "cphi": c.copy(),
-                                         "phib": b.copy()}, J,
-                    2 + ns + na - 1, w.size, "mode",
-                    {"omega": float(wm), "zeta": float(zm), "c": c, "b": b})
+    out = proposal("missing_mode", fr, {"frequency": fr, "damping": float(zm), "cphi": c.copy(),
+                                        "phib": b.copy()}, J,
+                   2 + ns + na - 1, w.size, "mode",
+                   {"omega": float(wm), "zeta": float(zm), "c": c, "b": b})
+    return None if leaves_region(out, w) else out      # a broadband trend (never invented)
 
 
 def _mode_normal(s, w, z, c, b, phi, Hm, r):
@@ -291,8 +331,8 @@ def _refine_mode(placed, H, w, z, c, b, wlim, steps=15, window=True):
         return wx, zx, phi, Hm
 
     x = np.r_[np.log(w), np.log(z), c, b]
-    lb = np.r_[np.log(wlim[0]), np.log(1e-5)]
-    ub = np.r_[np.log(wlim[1]), np.log(0.5)]
+    lb = np.r_[np.log(wlim[0]), np.log(FREE_DAMPING[0])]
+    ub = np.r_[np.log(wlim[1]), np.log(FREE_DAMPING[1])]
     wx, zx, phi, Hm = model(x)
     J, mu = cost(Hm, Hd), 1e-3
     for _ in range(steps):

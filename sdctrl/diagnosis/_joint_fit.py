@@ -6,28 +6,44 @@ dashpot, both shifting and damping the same modes) then share the error between 
 order they were found: the first absorbs part of the second.  After each accepted effect the
 sizes of all accepted effects are therefore fitted again together (from the second on: a
 lone effect keeps its own fit -- a free mode's, on the lines around it, is not pulled by the
-rest of the band), by nonlinear least squares
-(trust-region reflective, finite-difference Jacobian) on the complex logLS residual (3.12)
-``r(x) = Log(H(x) / H_d)`` of every line and channel, ``H(x)`` the model with every effect
-applied in turn at the coordinates ``x`` (their sizes, and for an extra mode its frequency,
-damping and modal vectors; residual terms, linear and many, keep their values).
+rest of the band) on the complex logLS residual (3.12) ``r(x) = Log(H(x) / H_d)`` of every
+line and channel, ``H(x)`` the model with every effect applied in turn at the coordinates
+``x`` (their sizes, and for an extra mode its frequency, damping and modal vectors; residual
+terms, linear and many, keep their values).
+
+The fit is Levenberg-Marquardt on the normal equations: ``J^T J`` is as small as the number
+of coordinates while ``J`` has a row per line, channel and real/imaginary part; each
+coordinate is scaled by its starting value, and a step leaving the bounds is projected on
+them.  The Jacobian is that of the effects' statistics
+(:func:`._effect_statistics.stacked_jacobian`: a free mode's coordinates in closed form, the
+others by forward differences).  The fit stops when a step lowers the cost by less than 1%
+of one noise unit ``sigma^2 / 2`` (per real residual entry): near the minimum ``|r(x)|^2 -
+|r(x*)|^2 = (sigma^2 / 2) d^2`` with ``d`` the Mahalanobis distance of ``x`` from ``x*`` in
+the coordinates' covariance (:mod:`._effect_statistics`), so the coordinates are then within
+about a tenth of a standard deviation of the optimum.  A free mode stays in its region
+(:func:`._global_effects.free_mode_region`: frequency near the band, damping ratio below
+0.5): the refit is bounded there, and a mode it drives onto the region's edge is a
+broadband trend, not a mode (:func:`._global_effects.leaves_region`): the refit stops
+there, and the diagnosis tries its next candidate.
 """
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
-from scipy.optimize import least_squares
 
 from sdctrl.diagnosis._apply import apply_effect
-from sdctrl.diagnosis._effect_statistics import coordinates
+from sdctrl.diagnosis._effect_statistics import Evaluator, coordinates, stacked_jacobian
+from sdctrl.diagnosis._global_effects import free_mode_region, leaves_region
 from sdctrl.diagnosis._residual_map import complex_residual, cost
 
 __all__ = ["applied", "refit"]
 
 #: function evaluations of the joint refit (the Jacobian's not counted)
 MAX_NFEV = 30
+#: the refit stops when a step lowers the cost by less than this share of it ...
+RTOL = 1e-8
+#: ... or by less than this share of one noise unit ``noise / 2`` (module notes)
+NOISE_SHARE = 0.01
 
 
 def applied(model, props, placed):
@@ -77,7 +93,7 @@ def _parameters(prop) -> dict:
     return par
 
 
-def refit(model, props, placed):
+def refit(model, props, placed, noise: float = 0.0):
     """Fit the coordinates of all accepted effects together (module notes).
 
     Parameters
@@ -88,6 +104,9 @@ def refit(model, props, placed):
         Accepted proposals, in the order they were found.
     placed : Placed
         The data.
+    noise : float
+        Noise level of the diagnosis (expected ``|r|^2`` per line and channel): the fit stops
+        when a step lowers the cost by less than ``NOISE_SHARE`` of ``noise / 2``.
 
     Returns
     -------
@@ -98,34 +117,27 @@ def refit(model, props, placed):
         ``model`` with them applied.
     """
     coords = [[] if p["action"] == "residual" else coordinates(p) for p in props]
-    owner = np.concatenate([[i] * len(c) for i, c in enumerate(coords)] + [[]]).astype(int)
     x0 = np.array([c[1] for cs in coords for c in cs], float)
     base = applied(model, props, placed)
     J0 = cost(placed.response(base), placed.Hd)
     if x0.size == 0:
         return props, base
-
-    def build(x):
-        out = []
-        for i, p in enumerate(props):
-            q = copy.deepcopy(p)
-            for (setter, _v, _g), xi in zip(coords[i], x[owner == i]):
-                setter(q["payload"], xi)
-            out.append(q)
-        return out
+    evaluate = Evaluator(model, props, coords, placed, placed)
+    lb, ub = _bounds(props, coords, placed.omega)
+    x0 = np.clip(x0, lb, ub)
 
     def resid(x):
-        r = complex_residual(placed.fast_response(applied(model, build(x), placed)),
-                             placed.Hd)
+        r = complex_residual(evaluate(x)[0], placed.Hd)
         return np.r_[r.real.ravel(), r.imag.ravel()]
 
-    scale = np.where(x0 != 0, np.abs(x0), 1.0)
     try:
-        sol = least_squares(resid, x0, x_scale=scale, diff_step=1e-6, method="trf",
-                            max_nfev=MAX_NFEV)
-    except (ValueError, np.linalg.LinAlgError):
+        x = _levenberg_marquardt(
+            resid, lambda x: stacked_jacobian(evaluate, x, central=False), x0, (lb, ub),
+            NOISE_SHARE * noise / 2,
+            stop=lambda x: any(leaves_region(q, placed.omega) for q in evaluate.built(x)))
+    except np.linalg.LinAlgError:
         return props, base
-    new = build(sol.x)
+    new = evaluate.built(x)
     corrected = applied(model, new, placed)
     J = cost(placed.response(corrected), placed.Hd)
     if not J < J0:
@@ -135,3 +147,46 @@ def refit(model, props, placed):
         if q["action"] == "mode":                 # a free mode is located by its frequency
             q["location"] = q["parameters"]["frequency"]
     return new, corrected
+
+
+def _bounds(props, coords, omega):
+    """Lower and upper bounds of the coordinates: a free mode's frequency and damping ratio
+    in its region, every other coordinate free."""
+    lo, hi, zlo, zhi = free_mode_region(omega)
+    lb, ub = [], []
+    for p, cs in zip(props, coords):
+        k = len(lb)
+        lb += [-np.inf] * len(cs)
+        ub += [np.inf] * len(cs)
+        if p["action"] == "mode":                 # (omega, zeta, c..., b...): coordinates()
+            lb[k:k + 2], ub[k:k + 2] = [lo, zlo], [hi, zhi]
+    return np.array(lb, float), np.array(ub, float)
+
+
+def _levenberg_marquardt(resid, jac, x0, bounds, enough=0.0, stop=None):
+    """Minimise ``|resid(x)|^2`` within ``bounds`` from ``x0`` (module notes); stop when a
+    step lowers it by less than ``enough`` (or the share ``RTOL``), or at a point where
+    ``stop(x)`` is true."""
+    lb, ub = bounds
+    scale = np.where(x0 != 0, np.abs(x0), 1.0)
+    x, r = x0, resid(x0)
+    f, mu, nfev = float(r @ r), 1e-3, 1
+    while nfev < MAX_NFEV:
+        Js = jac(x) * scale                        # columns in units of the starting values
+        A, g = Js.T @ Js, Js.T @ r
+        d = np.diag(A) + 1e-12 * max(np.trace(A), 1e-300)
+        while nfev < MAX_NFEV:
+            xt = np.clip(x - np.linalg.solve(A + mu * np.diag(d), g) * scale, lb, ub)
+            rt = resid(xt)
+            nfev += 1
+            ft = float(rt @ rt)
+            if ft < f:
+                break
+            mu *= 10.0
+        else:
+            break
+        done = f - ft < max(RTOL * f, enough) or (stop is not None and stop(xt))
+        x, r, f, mu = xt, rt, ft, max(mu / 10.0, 1e-12)
+        if done:
+            break
+    return x

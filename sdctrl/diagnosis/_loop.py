@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -25,6 +25,7 @@ from sdctrl.diagnosis._global_effects import (
     fit_free_mode,
     fit_nonproportional,
     fit_residual_terms,
+    leaves_region,
 )
 from sdctrl.diagnosis._joint_fit import refit
 from sdctrl.diagnosis._placed_data import place
@@ -51,6 +52,8 @@ ROUNDOFF = 1e-24
 MAX_STEPS = 50
 #: runner-up candidates kept per step
 N_RUNNERS = 8
+#: candidates tried in turn in a step when a joint refit rejects the best
+N_TRIES = 3
 
 
 def _check(model, frf, fe, executor, max_effects, noise, reach):
@@ -192,7 +195,11 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     hypotheses of the step (every family's locations, lines or channels together), ``M
     P(chi^2_k > T)``, must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the
     error above the noise level and 0.1% of the initial one (a second effect may be
-    much smaller than the first).  An extra mode found inside the
+    much smaller than the first).  A free extra mode stays a mode: when the joint refit of
+    the effects moves it onto the edge of its region (frequency 0.8-1.2 times the band's
+    ends, damping ratio 0.5) it is a broadband trend, and the step's next significant
+    candidate is tried instead (said in :attr:`Diagnosis.steps` and the report).  An extra
+    mode found inside the
     band (its peak and half-power points in it) and significant excludes the residual
     flexibility/mass terms of that step: those stand for effects outside the band and would
     otherwise absorb a missing in-band mode.  Physical candidates
@@ -312,6 +319,36 @@ def _accepted(best, J, J0, sigma2) -> bool:
                 and gain >= MIN_SHARE * max(J0 - sigma2, 0.0))
 
 
+@dataclass(frozen=True, eq=False)
+class _Extension:
+    """The effects after a step (None: nothing added), the corrected model and the
+    candidates rejected because their joint refit left a free mode's region."""
+
+    trial: list | None
+    model: object
+    rejected: list
+
+
+def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
+    """The first ranked proposal that passes the test (:func:`_accepted`; ``errors`` is
+    ``(J, J0, sigma2)``) and whose joint refit with the effects already accepted keeps every
+    free mode in its region (a mode refitted onto the region's edge is a broadband trend,
+    not a mode: the next candidate is tried, at most ``N_TRIES``)."""
+    rejected = []
+    for best in props[:N_TRIES]:
+        if not _accepted(best, *errors):
+            break
+        if not accepted:       # a lone effect keeps its own fit (a free mode: on its window)
+            return _Extension([best], apply_effect(current, best, placed0), rejected)
+        trial, new = refit(model, accepted + [best], placed0, errors[2])
+        if not any(leaves_region(q, placed0.omega) for q in trial):
+            return _Extension(trial, new, rejected)
+        rejected.append({"kind": best["kind"], "location": best["location"],
+                         "reason": "its joint refit moved a free mode onto the edge of its "
+                                   "region (a broadband trend, not a mode)"})
+    return _Extension(None, current, rejected)
+
+
 def _step(current, placed0, fe, cand, executor, progress, physical, H=None):
     """Proposals fitted to the residual of the current model (``H`` its response on
     ``placed0`` when already computed)."""
@@ -341,18 +378,13 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
         ts = time.perf_counter()
         props = _ranked(_step(current, placed0, fe, cand, executor, progress,
                               physical, H), J, sigma2, N, placed0.freq)
-        best = props[0]
-        ok = _accepted(best, J, J0, sigma2)
-        steps.append({"accepted": ok, "candidates": [_summary(p) for p in
-                                                     props[:N_RUNNERS]]})
-        if not ok:
+        ext = _extended(model, current, accepted, props, (J, J0, sigma2), placed0)
+        steps.append({"accepted": ext.trial is not None, "rejected": ext.rejected,
+                      "candidates": [_summary(p) for p in props[:N_RUNNERS]]})
+        if ext.trial is None:
             times.append(time.perf_counter() - ts)
             break
-        trial = accepted + [best]
-        if accepted:           # a lone effect keeps its own fit (a free mode: on its window)
-            trial, new = refit(model, trial, placed0)
-        else:
-            new = apply_effect(current, best, placed0)
+        best, trial, new = ext.trial[-1], ext.trial, ext.model
         H_new = placed0.response(new)
         J_new = cost(H_new, placed0.Hd)
         times.append(time.perf_counter() - ts)

@@ -202,10 +202,12 @@ class Diagnosis:
     noise : float
         Noise level: expected cost of the measurement noise alone.
     steps : list of dict
-        Per step: ``"accepted"`` (bool) and ``"candidates"`` (the best fitted candidates:
+        Per step: ``"accepted"`` (bool), ``"candidates"`` (the best fitted candidates:
         ``kind``, ``location``, ``parameters``, ``cost``, ``k`` parameters, ``m``
         hypotheses, ``score`` the extended-BIC gain, ``false_alarm`` the probability
-        that noise alone explains its gain in the step's search), best first.
+        that noise alone explains its gain in the step's search), best first, and
+        ``"rejected"`` (``kind``, ``location``, ``reason`` of the significant candidates
+        passed over because their joint refit moved a free mode onto its region's edge).
     info : dict
         Counts of candidates, timings, options.
     built : str or None
@@ -362,6 +364,9 @@ class Diagnosis:
                      f"{c['score']:.4g}") for c in st.get("candidates", [])]
             lines += [markdown_table(["effect", "location", "fitted parameters", "error",
                                       "params k", "hypotheses m", "EBIC gain"], rows), ""]
+            lines += [f"- passed over: {r['kind']} at {format_location(r['location'])} "
+                      f"({r['reason']})" for r in st.get("rejected", [])]
+            lines += [""] if st.get("rejected") else []
         if figure:
             lines += [f"![before/after and residual map]({figure})", ""]
         return "\n".join(lines)
