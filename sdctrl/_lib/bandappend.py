@@ -32,7 +32,8 @@ class FixedBlock:
     """What :func:`band_integral_appended` reuses of the fixed block ``(A2, B2, C2, D)``.
 
     ``L2`` its log difference, ``U, T`` the complex Schur form ``A2^H = U T U^H``, ``X22``
-    its own Lyapunov solution, ``Bs2 = B2 S`` (inputs weighted), ``lam`` its eigenvalues.
+    its own Lyapunov solution, ``S`` the inputs' weight, ``band`` ``(w1, w2)`` (rad/s),
+    ``lam`` its eigenvalues.
     """
 
     A: np.ndarray
@@ -94,7 +95,7 @@ def fixed_block(A2, B2, C2, D, S, w1: float, w2: float, undamped: bool = False) 
     return FixedBlock(A2, B2, C2, D, S, (w1, w2), L2, U, T, X22, lam2)
 
 
-def band_integral_appended(A1, B1, C1, fixed: FixedBlock, lam=None):
+def band_integral_appended(A1, B1, C1, fixed: FixedBlock):
     """``int H S H^H dw`` over ``fixed.band`` for ``H = C (sI - diag(A1, A2))^-1 B + D``.
 
     Parameters
@@ -103,8 +104,6 @@ def band_integral_appended(A1, B1, C1, fixed: FixedBlock, lam=None):
         The changed block (``B1`` its rows of ``B``, ``C1`` its columns of ``C``).
     fixed : FixedBlock
         The rest (:func:`fixed_block`).
-    lam : ndarray, optional
-        Eigenvalues of ``A1`` (unused: the basis is computed with its eigenvectors).
 
     Returns
     -------

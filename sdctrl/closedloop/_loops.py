@@ -233,7 +233,7 @@ def rms_appended(A1, B1, C1, fixed, lam=None) -> np.ndarray:
 
     w1, w2 = fixed.band
     axis = _check_poles(A1, w1, w2, lam=lam)
-    W = None if axis is not None else band_integral_appended(A1, B1, C1, fixed, lam)
+    W = None if axis is not None else band_integral_appended(A1, B1, C1, fixed)
     if W is None:
         k = A1.shape[0]
         A = np.zeros((k + fixed.A.shape[0],) * 2)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from sdctrl._lib.bandappend import FixedBlock
 from sdctrl._lib.parallel import chunked, map_chunks
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_band, check_executor, check_int, check_scalar
@@ -152,12 +153,13 @@ class _Loop:
 
     ``reduced`` is the model without its shapes (the reduced model every candidate changes
     by a low-rank term); ``shapes`` (N, n) are read at a strut's few DOFs only; ``static``
-    holds the :class:`~sdctrl.closedloop._strut_chunks.Statics` of a hybrid model whose struts get their own static
-    correction mode (:meth:`HybridModel.with_feedback`), else None; ``fixed`` is the
-    realisation (a :class:`~sdctrl._lib.bandappend.FixedBlock`) at the chosen outputs of
-    what a strut on the modal coordinates leaves unchanged -- the model's ``E``, ``F`` and residual dynamics (a tested
-    hybrid's terms at the tested I/O) -- appended to every closed loop; None when the
-    reduced model is its second-order part only (2.15).
+    holds the :class:`~sdctrl.closedloop._strut_chunks.Statics` of a hybrid model whose
+    struts get their own static correction mode (:meth:`HybridModel.with_feedback`), else
+    None; ``fixed`` is the realisation (a :class:`~sdctrl._lib.bandappend.FixedBlock`) at
+    the chosen outputs of what a strut on the modal coordinates leaves unchanged -- the
+    model's ``E``, ``F`` and residual dynamics (a tested hybrid's terms at the tested I/O)
+    -- appended to every closed loop; None when the reduced model is its second-order part
+    only (2.15).
     """
 
     reduced: object
@@ -171,7 +173,7 @@ class _Loop:
     kv: float
     criterion: str
     p_open: np.ndarray
-    fixed: tuple | None = None
+    fixed: FixedBlock | None = None
     rms_open: np.ndarray | None = None
 
 

@@ -56,8 +56,8 @@ def static_modes(loop, struts) -> list:
     ``wc2 = v^T K v`` (a Ritz value).  Here the chunk's loads are one right-hand side:
     one multi-column solve with the FE model's factorisation and a few sparse products,
     and each strut keeps only what the reduced model reads: ``wc2``, ``c v`` (ns,),
-    ``v^T b`` (na,), ``v^T s`` and ``v^T C v`` (NaN without a damping matrix).  ``None`` for a strut whose static response the shapes
-    already hold.
+    ``v^T b`` (na,), ``v^T s`` and ``v^T C v`` (NaN without a damping matrix).  ``None``
+    for a strut whose static response the shapes already hold.
     """
     st = loop.static
     fe, S = st.fe, loop.shapes
