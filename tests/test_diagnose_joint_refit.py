@@ -10,6 +10,8 @@ Checked against closed forms and truth:
   damping ratio below 0.5): a "mode" proposed to explain a broadband misfit (a constant
   residual flexibility) is driven onto the region's edge by the joint refit and passed over,
   and the step takes its next candidate;
+- a free mode accepted early that a later effect makes redundant is dropped (the residual
+  terms are refitted with the others);
 - a real missing mode refitted jointly with a second effect stays a mode, at its true
   frequency and damping.
 """
@@ -145,6 +147,25 @@ def test_refit_keeps_a_free_mode_in_its_region_and_passes_it_over():
     ext = _extended(base(), current, [delay], [mode, other], (J, J, 0.0), placed)
     assert [r["kind"] for r in ext.rejected] == ["missing_mode"]
     assert ext.trial is not None and [p["kind"] for p in ext.trial] == ["delay", "delay"]
+
+
+
+def test_a_generic_effect_made_redundant_is_dropped():
+    """Data: the model delayed, plus a constant residual flexibility (no mode missing).  The
+    residual flexibility comes first; a free mode then fits part of what the delay explains
+    (step 2); once the delay is accepted (step 3) and the residual term refitted with it, the
+    mode is no longer significant and is dropped: the diagnosis reports exactly the two
+    effects, to round-off."""
+    data = _broadband_case()
+    d = sd.diagnose(base(), data, progress=False)
+    assert sorted(e.kind for e in d.effects) == ["delay", "residual_flexibility"]
+    by_kind = {e.kind: e for e in d.effects}
+    assert by_kind["delay"].parameters["tau"] == pytest.approx(2e-3, rel=1e-3)
+    assert np.allclose(by_kind["residual_flexibility"].parameters["E"], 2e-4, rtol=1e-3)
+    assert d.error_after < 1e-7 * d.error_before
+    dropped = [x["kind"] for st in d.steps for x in st.get("dropped", [])]
+    assert dropped == ["missing_mode"]
+    assert "dropped: missing_mode" in d.report()
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.01])

@@ -32,7 +32,7 @@ from sdctrl.diagnosis._lowrank import Resolvent
 from sdctrl.diagnosis._residual_map import complex_residual, cost
 
 __all__ = ["fit_delay", "fit_free_mode", "fit_nonproportional", "fit_residual_terms",
-           "free_mode_region", "leaves_region", "proposal"]
+           "free_mode_region", "leaves_region", "ls_real", "proposal"]
 
 #: damping ratios tried at each residual peak when searching an extra mode
 ZETA_GRID = (0.001, 0.003, 0.01, 0.03)
@@ -149,8 +149,18 @@ def fit_delay(placed, H) -> dict:
     return proposal("delay", None, {"tau": tau}, J(tau), 1, 1, "delay", {"tau": tau})
 
 
-def _ls_real(A, e):
-    """Per-channel real least squares ``min sum_l |e_l - x a_l|^2``, a and e (nf, ns, na)."""
+def ls_real(A, e):
+    """Per-channel real least squares ``min sum_l |e_l - x a_l|^2``.
+
+    Parameters
+    ----------
+    A, e : ndarray, shape (nf, ns, na)
+        Regressor and data per line and channel.
+
+    Returns
+    -------
+    ndarray, shape (ns, na)
+    """
     den = np.sum(np.abs(A) ** 2, axis=0)
     return np.where(den > 0, np.sum((np.conj(A) * e).real, axis=0) / np.maximum(den, 1e-300),
                     0.0)
@@ -180,7 +190,7 @@ def fit_residual_terms(placed, H, fe_flex=None) -> list[dict]:
     shapes = {"residual_flexibility": np.ones_like(s), "residual_mass": 1.0 / s**2}
     for kind, phi in shapes.items():
         A = phi[:, None, None] / H
-        X = _ls_real(A, e)                                     # (ns, na)
+        X = ls_real(A, e)                                     # (ns, na)
         key = "E" if kind == "residual_flexibility" else "F"
         cands = [(None, X)] + [(placed.actuators[j], X * (np.arange(na) == j)) for j in
                                range(na)] if na > 1 else [(None, X)]
@@ -210,7 +220,7 @@ def _mode_residue(placed, H, e, w, z):
     s = placed.s
     phi = 1.0 / (s**2 + 2 * z * w * s + w**2)
     A = phi[:, None, None] / H
-    X = _ls_real(A, e)
+    X = ls_real(A, e)
     U, S, Vt = np.linalg.svd(X)
     X1 = S[0] * np.outer(U[:, 0], Vt[0])
     return X1, float(np.mean(np.abs(e - A * X1) ** 2)), phi

@@ -34,9 +34,9 @@ import numpy as np
 from sdctrl.diagnosis._apply import apply_effect
 from sdctrl.diagnosis._effect_statistics import Evaluator, coordinates, stacked_jacobian
 from sdctrl.diagnosis._global_effects import free_mode_region, leaves_region
-from sdctrl.diagnosis._residual_map import complex_residual, cost
+from sdctrl.diagnosis._residual_map import ALPHA, complex_residual, cost, false_alarm, log_ratio
 
-__all__ = ["applied", "refit"]
+__all__ = ["applied", "pruned", "refit"]
 
 #: function evaluations of the joint refit (the Jacobian's not counted)
 MAX_NFEV = 30
@@ -86,6 +86,12 @@ def _parameters(prop) -> dict:
         if "cphi" in par:
             par.update(cphi=np.asarray(p["c"], float).copy(),
                        phib=np.asarray(p["b"], float).copy())
+    elif act == "residual":
+        X = np.asarray(p["X"], float)
+        if "scale" in par and par["scale"]:
+            par["scale"] = float(par["scale"] * np.sum(X * par[p["field"]])
+                                 / np.sum(par[p["field"]] ** 2))
+        par[p["field"]] = X.copy()
     elif act == "gamma":
         for name in par:
             i, j = (int(t) - 1 for t in name.split("_")[1:3])
@@ -116,13 +122,14 @@ def refit(model, props, placed, noise: float = 0.0):
     corrected : model
         ``model`` with them applied.
     """
-    coords = [[] if p["action"] == "residual" else coordinates(p) for p in props]
-    x0 = np.array([c[1] for cs in coords for c in cs], float)
     base = applied(model, props, placed)
     J0 = cost(placed.response(base), placed.Hd)
+    first = _residual_terms_refitted(model, props, placed)
+    coords = [[] if p["action"] == "residual" else coordinates(p) for p in first]
+    x0 = np.array([c[1] for cs in coords for c in cs], float)
     if x0.size == 0:
-        return props, base
-    evaluate = Evaluator(model, props, coords, placed, placed)
+        return _kept(model, props, first, placed, J0)
+    evaluate = Evaluator(model, first, coords, placed, placed)
     lb, ub = _bounds(props, coords, placed.omega)
     x0 = np.clip(x0, lb, ub)
 
@@ -137,16 +144,123 @@ def refit(model, props, placed, noise: float = 0.0):
             stop=lambda x: any(leaves_region(q, placed.omega) for q in evaluate.built(x)))
     except np.linalg.LinAlgError:
         return props, base
-    new = evaluate.built(x)
-    corrected = applied(model, new, placed)
+    new = _residual_terms_refitted(model, evaluate.built(x), placed)
+    return _kept(model, props, new, placed, J0)
+
+
+def pruned(model, props, corrected, placed, noise):
+    """Generic effects that the later ones made redundant, taken out.
+
+    A free extra mode or a residual term (the effects that can stand for anything) accepted
+    at an earlier step is tested again given the others: the effects without it are refitted
+    together (:func:`refit`) and it is dropped when the error it then removes is not
+    significant (the false-alarm test of its acceptance, its own ``k`` parameters and ``m``
+    hypotheses, :func:`._residual_map.false_alarm` above ``ALPHA``).  Located physical
+    effects (a dashpot, a mass, ...) and the newest effect are kept as they are.
+
+    Parameters
+    ----------
+    model : model
+        The diagnosis's input model.
+    props : list of dict
+        Accepted proposals, jointly refitted.
+    corrected : model
+        ``model`` with them applied.
+    placed : Placed
+        The data.
+    noise : float
+        Noise level of the diagnosis.
+
+    Returns
+    -------
+    props : list of dict
+    corrected : model
+    dropped : list of int
+        Indices (in the input ``props``) of the effects taken out.
+    """
+    dropped, index = [], list(range(len(props)))
     J = cost(placed.response(corrected), placed.Hd)
-    if not J < J0:
-        return props, base
+    k = 0
+    while k < len(props) - 1:
+        p = props[k]
+        if not (p["action"] in ("mode", "residual") and len(props) > 1):
+            k += 1
+            continue
+        rest, without = refit(model, props[:k] + props[k + 1:], placed, noise)
+        Jw = cost(placed.response(without), placed.Hd)
+        if false_alarm(Jw, J, noise, placed.n_entries, p["k"], p["m"]) < ALPHA:
+            k += 1
+            continue
+        dropped.append(index.pop(k))
+        props, corrected, J = rest, without, Jw
+    return props, corrected, dropped
+
+
+def _kept(model, props, new, placed, J0):
+    """``(new, model with them)`` when they lower the cost below ``J0``, else the input
+    ``(props, model with them)``."""
+    corrected = applied(model, new, placed)
+    if not cost(placed.response(corrected), placed.Hd) < J0:
+        return props, applied(model, props, placed)
     for q in new:
         q["parameters"] = _parameters(q)
         if q["action"] == "mode":                 # a free mode is located by its frequency
             q["location"] = q["parameters"]["frequency"]
     return new, corrected
+
+
+def _residual_terms_refitted(model, props, placed) -> list:
+    """Copies of ``props`` whose residual terms (``+E``, ``+F / s^2``) are fitted again, one
+    after the other, given all the other effects: Gauss-Newton on the complex logLS of each
+    channel, whose entry of the term is its own coordinate (the entries the term has: its
+    actuator's column, or all), or on the term's one factor along the FE's residual
+    flexibility; a step is halved until it lowers the cost (:func:`_term_steps`)."""
+    from sdctrl.diagnosis._apply import DelayedModel
+
+    out = [dict(p) for p in props]
+    for i, p in enumerate(props):
+        if p["action"] != "residual":
+            continue
+        m = applied(model, out, placed)
+        H = placed.fast_response(m)
+        lag = (np.exp(-1j * placed.omega * m.tau) if isinstance(m, DelayedModel)
+               else np.ones(placed.omega.size))
+        phi = (lag * (1.0 if p["payload"]["field"] == "E" else 1.0 / placed.s**2))
+        X = np.asarray(p["payload"]["X"], float)
+        scale = p["parameters"].get("scale")
+        g = X / scale if scale else (X != 0).astype(float)
+        x0 = scale if scale else X
+        x = _term_steps(H - phi[:, None, None] * X, phi[:, None, None] * g, placed.Hd, x0,
+                        scalar=bool(scale))
+        out[i] = dict(p, payload=dict(p["payload"], X=x * g))
+    return out
+
+
+def _term_steps(H0, G, Hd, x, scalar, steps=8):
+    """Minimise the logLS of ``H0 + G x`` per channel (``x`` (ns, na)), or over all
+    channels for one ``x`` (``scalar``), by Gauss-Newton steps halved until they help."""
+    axes = (0, 1, 2) if scalar else 0
+
+    def costs(x):
+        return np.sum(np.abs(log_ratio((H0 + G * x) / Hd)) ** 2, axis=axes)
+
+    c = costs(x)
+    for _ in range(steps):
+        H = H0 + G * x
+        a = G / H
+        num = np.sum((np.conj(a) * log_ratio(H / Hd)).real, axis=axes)
+        den = np.sum(np.abs(a) ** 2, axis=axes)
+        dx = np.where(den > 0, -num / np.maximum(den, 1e-300), 0.0)
+        for _half in range(6):
+            ct = costs(x + dx)
+            better = ct < c
+            if np.all(better | (dx == 0)):
+                break
+            dx = np.where(better, dx, 0.5 * dx)
+        x, c = np.where(better, x + dx, x), np.where(better, ct, c)
+        if not np.any(better):
+            break
+    return x
 
 
 def _bounds(props, coords, omega):

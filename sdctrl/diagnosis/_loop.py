@@ -27,7 +27,7 @@ from sdctrl.diagnosis._global_effects import (
     fit_residual_terms,
     leaves_region,
 )
-from sdctrl.diagnosis._joint_fit import refit
+from sdctrl.diagnosis._joint_fit import pruned, refit
 from sdctrl.diagnosis._placed_data import place
 from sdctrl.diagnosis._residual_map import (
     ALPHA,
@@ -321,12 +321,14 @@ def _accepted(best, J, J0, sigma2) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class _Extension:
-    """The effects after a step (None: nothing added), the corrected model and the
-    candidates rejected because their joint refit left a free mode's region."""
+    """The effects after a step (None: nothing added), the corrected model, the candidates
+    rejected because their joint refit left a free mode's region and the indices of the
+    earlier effects the new one made redundant (:func:`._joint_fit.pruned`)."""
 
     trial: list | None
     model: object
     rejected: list
+    dropped: tuple = ()
 
 
 def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
@@ -342,7 +344,8 @@ def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
             return _Extension([best], apply_effect(current, best, placed0), rejected)
         trial, new = refit(model, accepted + [best], placed0, errors[2])
         if not any(leaves_region(q, placed0.omega) for q in trial):
-            return _Extension(trial, new, rejected)
+            trial, new, dropped = pruned(model, trial, new, placed0, errors[2])
+            return _Extension(trial, new, rejected, tuple(dropped))
         rejected.append({"kind": best["kind"], "location": best["location"],
                          "reason": "its joint refit moved a free mode onto the edge of its "
                                    "region (a broadband trend, not a mode)"})
@@ -380,6 +383,7 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
                               physical, H), J, sigma2, N, placed0.freq)
         ext = _extended(model, current, accepted, props, (J, J0, sigma2), placed0)
         steps.append({"accepted": ext.trial is not None, "rejected": ext.rejected,
+                      "dropped": [_summary(accepted[k]) for k in ext.dropped],
                       "candidates": [_summary(p) for p in props[:N_RUNNERS]]})
         if ext.trial is None:
             times.append(time.perf_counter() - ts)
@@ -395,7 +399,7 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
             steps[-1]["accepted"] = False
             break
         accepted, current, J, H = trial, new, J_new, H_new
-        errors.append(J_new)
+        errors = [e for k, e in enumerate(errors) if k not in ext.dropped] + [J_new]
         if noise is None:
             sigma2 = min(sigma2, noise_level(complex_residual(H, placed0.Hd)))
     effects = _effects(model, accepted, errors, J0, placed0, sigma2)

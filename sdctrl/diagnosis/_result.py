@@ -207,7 +207,9 @@ class Diagnosis:
         hypotheses, ``score`` the extended-BIC gain, ``false_alarm`` the probability
         that noise alone explains its gain in the step's search), best first, and
         ``"rejected"`` (``kind``, ``location``, ``reason`` of the significant candidates
-        passed over because their joint refit moved a free mode onto its region's edge).
+        passed over because their joint refit moved a free mode onto its region's edge),
+        ``"dropped"`` (earlier effects, a free mode or a residual term, that the step's
+        effect made redundant, as accepted).
     info : dict
         Counts of candidates, timings, options.
     built : str or None
@@ -366,7 +368,9 @@ class Diagnosis:
                                       "params k", "hypotheses m", "EBIC gain"], rows), ""]
             lines += [f"- passed over: {r['kind']} at {format_location(r['location'])} "
                       f"({r['reason']})" for r in st.get("rejected", [])]
-            lines += [""] if st.get("rejected") else []
+            lines += [f"- dropped: {d['kind']} at {format_location(d['location'])} (no "
+                      "longer significant given the others)" for d in st.get("dropped", [])]
+            lines += [""] if st.get("rejected") or st.get("dropped") else []
         if figure:
             lines += [f"![before/after and residual map]({figure})", ""]
         return "\n".join(lines)
