@@ -20,7 +20,14 @@ is contradicted by the data: the identified model holds out-of-band poles (dynam
 the band the in-band modes can couple to) and the improper part exceeds ``IMPROPER_SIGMAS``
 standard deviations of the residue (3.58).  Each kept part adds two states per dyad to the
 realisation (3.26-3.33).  Otherwise the improper part is identification
-error or noise, and the proper modes are the better estimate.
+error or noise, and the proper modes are the better estimate.  Close modes
+(:func:`~sdctrl.identification._close_modes.close_groups`) are judged together: the test
+determines the sum of their residues better than each, and the properness correction trades
+residue between them, so that keeping the improper part of one without the others upsets their
+balance (the response between and away from their resonances, where their contributions nearly
+cancel).  A group's improper parts are kept, all of them, when one is significant or when their
+sum is, against the standard deviation of the group's summed residue (3.58, with the
+covariances between the modes).
 
 Internal module: the functions trust their inputs.
 """
@@ -31,6 +38,7 @@ import warnings
 
 import numpy as np
 
+from sdctrl.identification._close_modes import close_groups, summed_residue_std
 from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
@@ -150,7 +158,9 @@ def improper_terms(cm, nm, sel, reasons: dict):
     residues : ndarray, shape (len(index), ns, na), complex
         ``R_j - R_nm(lambda_j)``, the identified residue minus the normal mode's (3.7, 2.15),
         kept where its norm exceeds ``IMPROPER_SIGMAS`` times the norm of the residue's
-        standard deviations (3.58).
+        standard deviations (3.58) -- for each group of close modes, at all of its modes when
+        one of them, or the group's summed improper part against the summed residue's
+        standard deviations, does.
     """
     sel = np.asarray(sel, int)
     none = np.zeros(0, int), np.zeros((0, cm.ns, cm.na), complex)
@@ -164,6 +174,11 @@ def improper_terms(cm, nm, sel, reasons: dict):
     size = np.sqrt(np.sum(np.abs(D) ** 2, axis=(1, 2)))
     scale = np.sqrt(np.sum(std**2, axis=(1, 2)))
     keep = np.isfinite(scale) & (size > IMPROPER_SIGMAS * scale)
+    group, shape = close_groups(lam), np.shape(cm.residues)
+    for g in np.unique(group[group != np.arange(sel.size)]):            # groups of 2 or more
+        m = group == g
+        scale_m = np.linalg.norm(summed_residue_std(cm.statistics, sel[m], shape))
+        keep[m] = keep[m].any() or np.linalg.norm(D[m].sum(axis=0)) > IMPROPER_SIGMAS * scale_m
     order = np.argsort(sel[keep])
     return sel[keep][order], D[keep][order]
 

@@ -26,6 +26,7 @@ from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_collocated
+from sdctrl.identification._collocated_scaling import proper_phase, unscaled_poles
 from sdctrl.identification._complex_modes import scale_residues
 from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
@@ -270,8 +271,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         reasons = {int(j): OUT_OF_BAND for j in np.flatnonzero(~in_band)}
     if needs_transpose(cm, cand.size):
         return _transposed(cm, pairs, modes=modes, tol=tol, maxiter=maxiter, std=std)
-    sel, failed = split_modes(cand, cm.ns,
-                              lambda idx: _transform(cm, idx, pairs, tol, maxiter, False))
+    free = unscaled_poles(cm, pairs, cand)          # scaling phase from properness (3.40)
+    sel, failed = split_modes(cand, cm.ns, lambda idx: _transform(
+        cm, idx, pairs, tol, maxiter, False, free=free))
     if sel.size == 0:
         raise ValueError("cm: no pole can be made a normal mode (" + "; ".join(
             f"{j}: {why}" for j, why in sorted({**reasons, **failed}.items())) + ")")
@@ -281,7 +283,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             + " -- kept as complex-mode residual dynamics (nm.residual)", RuntimeWarning,
             stacklevel=2)
     reasons.update(failed)
-    nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons))
+    nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons), free=free)
     extra = improper_terms(cm, nm, sel, reasons)
     return nm.replace(residual=residual_block(cm, reasons, extra))
 
@@ -304,9 +306,10 @@ def _transposed(cm, pairs, **options):
     return nm.replace(residual=None if res is None else res.transposed(), std=sd)
 
 
-def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
+def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=(), free=()):
     """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm`` (``residual``: the
-    poles kept as residual dynamics, not left out), scale-free.
+    poles kept as residual dynamics, not left out; ``free``: poles whose scaling's phase
+    comes from properness, :func:`._collocated_scaling.proper_phase`), scale-free.
 
     Every step is homogeneous in the residues: they are divided by ``s = 4^m``, a power of
     two near their size (exact in floating point), and the result scaled back (``cphi``,
@@ -316,16 +319,16 @@ def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
     peak = float(np.abs(np.asarray(cm.residues)[sel]).max()) if len(sel) else 0.0
     m = int(np.frexp(peak)[1]) // 2 if np.isfinite(peak) and peak > 0 else 0
     if m == 0:
-        nm = _transform_scaled(cm, sel, pairs, tol, maxiter, residual)
+        nm = _transform_scaled(cm, sel, pairs, tol, maxiter, residual, free)
     else:
         s = 4.0**m
         nm = _scaled_back(_transform_scaled(cm.replace(
             residues=np.asarray(cm.residues) / s, E=None if cm.E is None else cm.E / s,
             F=None if cm.F is None else cm.F / s, statistics=None), sel, pairs, tol, maxiter,
-            residual), s, 2.0**m)
+            residual, free), s, 2.0**m)
     if not std:
         return nm
-    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False)  # noqa: E731 -- (3.4)
+    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False, free=free)  # noqa: E731
     return with_std(nm, cm, again)
 
 
@@ -341,14 +344,14 @@ def _scaled_back(nm, s: float, r: float):
                       F=None if nm.F is None else nm.F * s, properness=rec)
 
 
-def _transform_scaled(cm, sel, pairs, tol, maxiter, residual=()):
+def _transform_scaled(cm, sel, pairs, tol, maxiter, residual=(), free=()):
     """Steps 1-5 of :func:`normal_modes` on residues of order one (see :func:`_transform`)."""
     from sdctrl.modal._normal_model import NormalModeModel
 
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
     _check_poles(lam, cm.ns)
     with single_thread():                         # small matrices: BLAS threads only hurt
-        cpsi, psib = scaled_modes(R, pairs, sel)
+        cpsi, psib = scaled_modes(R, pairs, sel, unscaled=np.isin(sel, free))
         cT, sensor_ev = _reduced_coordinates(cpsi, lam)
         psi = cT.T @ cpsi                                              # (3.46) LS fit
         # --- properness (3.40) by the optimal correction (3.51)-(3.52) ------------------
@@ -432,7 +435,7 @@ def _mode_in_band(w2, lam, in_band) -> np.ndarray:
 
 
 # --- steps ---------------------------------------------------------------------------------
-def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, np.ndarray]:
+def scaled_modes(residues: np.ndarray, pairs, index=None, unscaled=None):
     """Scaled complex modal observability and controllability, eq. (3.24)-(3.25).
 
     The dyadic part of each residue ``R_j ~ u_j w_j^T`` (first singular pair, 3.23) is
@@ -449,6 +452,9 @@ def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, n
         Collocated (sensor, actuator) index pairs.
     index : sequence of int, optional
         Index of each mode in the complex-mode model, for the error messages.
+    unscaled : ndarray of bool, shape (n,), optional
+        Modes whose collocated residues are noise: their scaling takes the phase of a proper
+        mode (:func:`~sdctrl.identification._collocated_scaling.proper_phase`).
 
     Returns
     -------
@@ -456,6 +462,8 @@ def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, n
     psib : ndarray, shape (n, na)
     """
     cpsi, psib, k = scale_residues(residues, pairs)
+    if unscaled is not None and np.any(unscaled):
+        cpsi, psib = proper_phase(cpsi, psib, k["z"], unscaled)
     index = range(cpsi.shape[1]) if index is None else index
     for i, j in enumerate(index):
         if k["sigma1"][i] == 0:
