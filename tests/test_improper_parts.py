@@ -21,7 +21,9 @@ from sdctrl.identification._mode_split import (
     OUT_OF_BAND,
     _model_residues,
     improper_terms,
+    modal_factors,
 )
+from sdctrl.identification._proper_terms import phib_from_residues
 from sdctrl.updating import logls
 from test_family_normal_modes import _chain    # one cached chain per member for both files
 
@@ -75,8 +77,14 @@ def test_close_modes_improper_parts_are_kept_together():
     blades = sel[cm.frequency[sel] < 11.0]
     assert blades.size == 4
     assert close_groups(cm.poles[blades]).tolist() == [0, 0, 0, 0]
-    src, poles, D = _improper(nm)
+    src, poles, _ = _improper(nm)
     assert src.tolist() == blades.tolist()
+    # judged on step 5's phib, the residue fit over every mode (step 6 refits it to the FRF)
+    Xs, Ys = modal_factors(nm, cm.poles[sel])
+    step5 = nm.replace(phib=phib_from_residues(cm.residues[sel], Xs, Ys))
+    R = cm.residues[src]
+    X, Y = modal_factors(nm, poles)
+    D = R - np.einsum("ij,jk->jik", X, Y.T @ step5.phib)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         std = cm.residue_std()[src]
@@ -84,17 +92,25 @@ def test_close_modes_improper_parts_are_kept_together():
     assert (z > 3).sum() == 1 and z.max() > 3                       # 10.287 Hz alone
     assert abs(cm.frequency[src[np.argmax(z)]] - 10.287) < 0.005
 
+    # the parts against step 5's model, kept for a subset of the group (the other poles of
+    # the residual dynamics as they are)
+    r = nm.residual
+    other = np.array([why != IMPROPER for why in r.reasons])
+
     def error(keep):
-        r = nm.residual
-        k = np.array([why != IMPROPER or s in keep for why, s in zip(r.reasons, r.source)])
-        sub = r.__class__(r.poles[k], r.residues[k], sensors=nm.sensors, actuators=nm.actuators)
-        return logls(nm.replace(residual=sub).frf(frf.freq, quantity=frf.quantity).H, frf.H)
+        k = np.isin(src, keep)
+        sub = r.__class__(np.concatenate([r.poles[other], poles[k]]),
+                          np.concatenate([r.residues[other], D[k]]),
+                          sensors=nm.sensors, actuators=nm.actuators)
+        return logls(step5.replace(residual=sub).frf(frf.freq, quantity=frf.quantity).H, frf.H)
 
     e_id = logls(cm.frf(frf.freq, quantity=frf.quantity).H, frf.H)
     e_all, e_none, e_one = error(blades), error(()), error((src[np.argmax(z)],))
     assert e_all <= 1.1 * e_id                                      # measured 0.0310 / 0.0299
     assert e_none > 5 * e_all                                       # measured 0.339
     assert e_one > e_none                                           # measured 0.997
+    # step 6 (phib refitted to the FRF on the other modes) keeps the identified model's level
+    assert logls(nm.frf(frf.freq, quantity=frf.quantity).H, frf.H) <= 1.01 * e_id
 
 
 def test_close_groups_closed_form():
@@ -160,8 +176,10 @@ def test_no_statistics_no_improper_part():
         warnings.simplefilter("ignore")
         nm0 = sd.normal_modes(bare, std=False)
     assert nm0.residual.reasons == (OUT_OF_BAND,) * nm0.residual.m
-    # the normal modes themselves are the same with or without the kept parts
-    assert np.array_equal(nm0.Omega, nm.Omega) and np.array_equal(nm0.phib, nm.phib)
+    # the normal modes themselves are the same with or without the kept parts (but phib,
+    # refitted to the FRF on the modes whose parts are not kept, step 6)
+    assert np.array_equal(nm0.Omega, nm.Omega) and np.array_equal(nm0.cphi, nm.cphi)
+    assert np.array_equal(nm0.Gamma, nm.Gamma)
 
 
 def test_statespace_realises_the_improper_parts():

@@ -42,8 +42,8 @@ from sdctrl.identification._close_modes import close_groups, summed_residue_std
 from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
-__all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "residual_block",
-           "split_modes"]
+__all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "modal_factors",
+           "residual_block", "split_modes"]
 
 #: reason recorded for the poles fitted outside the band
 OUT_OF_BAND = ("out of band: a pole fitted to absorb out-of-band modes (it may stand for "
@@ -122,9 +122,9 @@ def split_modes(candidates, ns: int, attempt):
     return np.array(sorted(kept), int), reasons
 
 
-def _model_residues(nm, poles):
-    """Residues (2.9) of the normal modes of ``nm`` at the tested I/O, at the poles matching
-    ``poles`` one to one (nearest), shape (len(poles), ns, na)."""
+def modal_factors(nm, poles):
+    """``X`` (ns, k) and ``Y`` (n, k) with the residue (2.9) of the normal modes of ``nm`` at
+    the pole matching ``poles[j]`` one to one (nearest) ``X[:, j] (Y[:, j]^T phib)``."""
     from scipy.optimize import linear_sum_assignment
 
     n = nm.n
@@ -132,9 +132,15 @@ def _model_residues(nm, poles):
     lam, V = np.linalg.eig(A)
     W = np.linalg.inv(V)
     up = np.flatnonzero(lam.imag > 0)
-    R = np.einsum("ij,jk->jik", nm.cphi @ V[:n, up], W[up, n:] @ nm.phib)
     _, col = linear_sum_assignment(np.abs(poles[:, None] - lam[up][None, :]))
-    return R[col]
+    return (nm.cphi @ V[:n, up])[:, col], W[up, n:][col].T
+
+
+def _model_residues(nm, poles):
+    """Residues (2.9) of the normal modes of ``nm`` at the tested I/O, at the poles matching
+    ``poles`` one to one (nearest), shape (len(poles), ns, na)."""
+    X, Y = modal_factors(nm, poles)
+    return np.einsum("ij,jk->jik", X, Y.T @ nm.phib)
 
 
 def improper_terms(cm, nm, sel, reasons: dict):

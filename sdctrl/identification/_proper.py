@@ -34,7 +34,7 @@ from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
 from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, residual_block,
                                                split_modes)
-from sdctrl.identification._proper_terms import (asymptotic_terms, model_residues,
+from sdctrl.identification._proper_terms import (asymptotic_terms, fitted_to_frf, model_residues,
                                                   phib_from_residues, pole_error)
 
 __all__ = ["Properness", "normal_modes", "scaled_modes"]
@@ -284,7 +284,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             stacklevel=2)
     reasons.update(failed)
     nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons), free=free)
-    extra = improper_terms(cm, nm, sel, reasons)
+    nm, extra = fitted_to_frf(cm, nm, sel, improper_terms(cm, nm, sel, reasons))   # step 6
     return nm.replace(residual=residual_block(cm, reasons, extra))
 
 
