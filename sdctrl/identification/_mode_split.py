@@ -29,7 +29,9 @@ cancel).  A group's improper parts are kept, all of them, when one is significan
 sum is, against the standard deviation of the group's summed residue (3.58, with the
 covariances between the modes).
 
-Internal module: the functions trust their inputs.
+:func:`mode_selection` validates the ``modes=`` argument of :func:`sdctrl.normal_modes`.
+
+Internal module: the functions trust their inputs (but :func:`mode_selection`).
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
 __all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "modal_factors",
-           "residual_block", "split_modes"]
+           "mode_selection", "residual_block", "split_modes"]
 
 #: reason recorded for the poles fitted outside the band
 OUT_OF_BAND = ("out of band: a pole fitted to absorb out-of-band modes (it may stand for "
@@ -224,3 +226,26 @@ def residual_block(cm, reasons: dict, improper=None) -> ResidualDynamics | None:
                             reasons=tuple(reasons[int(j)] for j in idx)
                             + (IMPROPER,) * extra.size, source=np.concatenate([idx, extra]),
                             **kw)
+
+
+def mode_selection(modes, n: int) -> np.ndarray:
+    """Validated integer indices of the selected modes (``modes`` indices or boolean mask)."""
+    try:
+        m = np.array(modes, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise TypeError("modes must be an array of mode indices or a boolean mask") from exc
+    if m.dtype == bool:
+        if m.shape != (n,):
+            raise ValueError(f"modes as a boolean mask must have {n} entries, got {m.shape}")
+        idx = np.flatnonzero(m)
+    elif m.ndim == 1 and (m.size == 0 or np.issubdtype(m.dtype, np.integer)):
+        idx = m.astype(int)
+        if np.any(idx < 0) or np.any(idx >= n):
+            raise ValueError(f"modes: index out of range [0, {n})")
+        if np.unique(idx).size != idx.size:
+            raise ValueError("modes: repeated index")
+    else:
+        raise TypeError("modes must be a 1-D array of mode indices or a boolean mask")
+    if idx.size == 0:
+        raise ValueError("modes selects no mode")
+    return idx

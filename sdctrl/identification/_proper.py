@@ -32,8 +32,8 @@ from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
-from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, residual_block,
-                                               split_modes)
+from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, mode_selection,
+                                               residual_block, split_modes)
 from sdctrl.identification._proper_terms import (asymptotic_terms, fitted_to_frf, model_residues,
                                                   phib_from_residues, pole_error)
 
@@ -155,7 +155,18 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
        ``K_T phi = M_T phi Omega`` (mass-normalised): ``Omega``, ``Gamma = phi^T C_T phi``,
        ``cphi = c_T phi``;
     5. ``phib`` by linear least squares on the identified residues given the proper
-       modes (in exact data ``phib[:, a] = cphi[s, :]`` for a collocated pair ``(s, a)``).
+       modes (in exact data ``phib[:, a] = cphi[s, :]`` for a collocated pair ``(s, a)``);
+    6. the rows of ``phib`` of close modes (whose FRF contributions overlap, their residues
+       traded between them by noise and by the correction) refitted to the identified FRF
+       relative to its level, the logLS cost (3.12) linearised
+       (:func:`~sdctrl.identification._proper_terms.fitted_to_frf`): a small transfer where
+       their large contributions nearly cancel keeps its anti-resonances.
+
+    A mode whose collocated residues are all within 3 standard deviations (3.58) -- a
+    localised mode far from every shaker -- is not scaled by the test: its scaling's phase in
+    step 1 is then that of a proper mode (3.40) and its least-squares magnitude is kept, with
+    a warning (:mod:`~sdctrl.identification._collocated_scaling`); its mass scale is not
+    measured.
 
     The poles of the result are the identified poles (the transformation is exact for
     proper modes); the maximum relative deviation is ``nm.properness.pole_error``.
@@ -171,7 +182,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     out-of-band poles the in-band modes may couple to (section 3.3's assumption fails, e.g. a
     dashpot), the identified residue minus the normal mode's (3.7 against 2.15) is kept at
     the same pole in ``nm.residual`` too (reason ``"improper part: ..."``, after the other
-    poles; the normal modes are unchanged).  So the normal-mode model reproduces the
+    poles; the normal modes are unchanged), for close modes together: all of a group's when
+    one, or their sum, is significant (:mod:`~sdctrl.identification._close_modes`).  So the
+    normal-mode model reproduces the
     identified model at the tested I/O.  Which
     poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
     ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
@@ -263,7 +276,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     in_band = np.asarray(cm.in_band, bool)
     reasons = {}
     if modes is not None:
-        cand = _mode_selection(modes, cm.n)
+        cand = mode_selection(modes, cm.n)
     elif in_band.all() or not in_band.any():
         cand = np.arange(cm.n)
     else:
@@ -476,25 +489,3 @@ def scaled_modes(residues: np.ndarray, pairs, index=None, unscaled=None):
                              f"{tuple(pairs)}; it cannot be scaled (3.24)")
     return cpsi, psib
 
-
-def _mode_selection(modes, n: int) -> np.ndarray:
-    """Validated integer indices of the selected modes (``modes`` indices or boolean mask)."""
-    try:
-        m = np.array(modes, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise TypeError("modes must be an array of mode indices or a boolean mask") from exc
-    if m.dtype == bool:
-        if m.shape != (n,):
-            raise ValueError(f"modes as a boolean mask must have {n} entries, got {m.shape}")
-        idx = np.flatnonzero(m)
-    elif m.ndim == 1 and (m.size == 0 or np.issubdtype(m.dtype, np.integer)):
-        idx = m.astype(int)
-        if np.any(idx < 0) or np.any(idx >= n):
-            raise ValueError(f"modes: index out of range [0, {n})")
-        if np.unique(idx).size != idx.size:
-            raise ValueError("modes: repeated index")
-    else:
-        raise TypeError("modes must be a 1-D array of mode indices or a boolean mask")
-    if idx.size == 0:
-        raise ValueError("modes selects no mode")
-    return idx
