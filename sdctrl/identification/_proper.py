@@ -184,9 +184,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     the same pole in ``nm.residual`` too (reason ``"improper part: ..."``, after the other
     poles; the normal modes are unchanged), for close modes together: all of a group's when
     one, or their sum, is significant (:mod:`~sdctrl.identification._close_modes`).  So the
-    normal-mode model reproduces the
-    identified model at the tested I/O.  Which
-    poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
+    normal-mode model reproduces the identified model at the tested I/O.  Which poles
+    became modes: ``nm.properness.poles_used``; which stayed residual and why:
     ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
     dynamics have no shapes: :meth:`~sdctrl.NormalModeModel.modified`,
     :meth:`~sdctrl.NormalModeModel.with_feedback` and ``with_io`` act on the normal modes
