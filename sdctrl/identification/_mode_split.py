@@ -20,9 +20,18 @@ is contradicted by the data: the identified model holds out-of-band poles (dynam
 the band the in-band modes can couple to) and the improper part exceeds ``IMPROPER_SIGMAS``
 standard deviations of the residue (3.58).  Each kept part adds two states per dyad to the
 realisation (3.26-3.33).  Otherwise the improper part is identification
-error or noise, and the proper modes are the better estimate.
+error or noise, and the proper modes are the better estimate.  Close modes
+(:func:`~sdctrl.identification._close_modes.close_groups`) are judged together: the test
+determines the sum of their residues better than each, and the properness correction trades
+residue between them, so that keeping the improper part of one without the others upsets their
+balance (the response between and away from their resonances, where their contributions nearly
+cancel).  A group's improper parts are kept, all of them, when one is significant or when their
+sum is, against the standard deviation of the group's summed residue (3.58, with the
+covariances between the modes).
 
-Internal module: the functions trust their inputs.
+:func:`mode_selection` validates the ``modes=`` argument of :func:`sdctrl.normal_modes`.
+
+Internal module: the functions trust their inputs (but :func:`mode_selection`).
 """
 
 from __future__ import annotations
@@ -31,11 +40,12 @@ import warnings
 
 import numpy as np
 
+from sdctrl.identification._close_modes import close_groups, summed_residue_std
 from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
-__all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "residual_block",
-           "split_modes"]
+__all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "modal_factors",
+           "mode_selection", "residual_block", "split_modes"]
 
 #: reason recorded for the poles fitted outside the band
 OUT_OF_BAND = ("out of band: a pole fitted to absorb out-of-band modes (it may stand for "
@@ -114,9 +124,9 @@ def split_modes(candidates, ns: int, attempt):
     return np.array(sorted(kept), int), reasons
 
 
-def _model_residues(nm, poles):
-    """Residues (2.9) of the normal modes of ``nm`` at the tested I/O, at the poles matching
-    ``poles`` one to one (nearest), shape (len(poles), ns, na)."""
+def modal_factors(nm, poles):
+    """``X`` (ns, k) and ``Y`` (n, k) with the residue (2.9) of the normal modes of ``nm`` at
+    the pole matching ``poles[j]`` one to one (nearest) ``X[:, j] (Y[:, j]^T phib)``."""
     from scipy.optimize import linear_sum_assignment
 
     n = nm.n
@@ -124,9 +134,15 @@ def _model_residues(nm, poles):
     lam, V = np.linalg.eig(A)
     W = np.linalg.inv(V)
     up = np.flatnonzero(lam.imag > 0)
-    R = np.einsum("ij,jk->jik", nm.cphi @ V[:n, up], W[up, n:] @ nm.phib)
     _, col = linear_sum_assignment(np.abs(poles[:, None] - lam[up][None, :]))
-    return R[col]
+    return (nm.cphi @ V[:n, up])[:, col], W[up, n:][col].T
+
+
+def _model_residues(nm, poles):
+    """Residues (2.9) of the normal modes of ``nm`` at the tested I/O, at the poles matching
+    ``poles`` one to one (nearest), shape (len(poles), ns, na)."""
+    X, Y = modal_factors(nm, poles)
+    return np.einsum("ij,jk->jik", X, Y.T @ nm.phib)
 
 
 def improper_terms(cm, nm, sel, reasons: dict):
@@ -150,7 +166,9 @@ def improper_terms(cm, nm, sel, reasons: dict):
     residues : ndarray, shape (len(index), ns, na), complex
         ``R_j - R_nm(lambda_j)``, the identified residue minus the normal mode's (3.7, 2.15),
         kept where its norm exceeds ``IMPROPER_SIGMAS`` times the norm of the residue's
-        standard deviations (3.58).
+        standard deviations (3.58) -- for each group of close modes, at all of its modes when
+        one of them, or the group's summed improper part against the summed residue's
+        standard deviations, does.
     """
     sel = np.asarray(sel, int)
     none = np.zeros(0, int), np.zeros((0, cm.ns, cm.na), complex)
@@ -164,6 +182,11 @@ def improper_terms(cm, nm, sel, reasons: dict):
     size = np.sqrt(np.sum(np.abs(D) ** 2, axis=(1, 2)))
     scale = np.sqrt(np.sum(std**2, axis=(1, 2)))
     keep = np.isfinite(scale) & (size > IMPROPER_SIGMAS * scale)
+    group, shape = close_groups(lam), np.shape(cm.residues)
+    for g in np.unique(group[group != np.arange(sel.size)]):            # groups of 2 or more
+        m = group == g
+        scale_m = np.linalg.norm(summed_residue_std(cm.statistics, sel[m], shape))
+        keep[m] = keep[m].any() or np.linalg.norm(D[m].sum(axis=0)) > IMPROPER_SIGMAS * scale_m
     order = np.argsort(sel[keep])
     return sel[keep][order], D[keep][order]
 
@@ -203,3 +226,26 @@ def residual_block(cm, reasons: dict, improper=None) -> ResidualDynamics | None:
                             reasons=tuple(reasons[int(j)] for j in idx)
                             + (IMPROPER,) * extra.size, source=np.concatenate([idx, extra]),
                             **kw)
+
+
+def mode_selection(modes, n: int) -> np.ndarray:
+    """Validated integer indices of the selected modes (``modes`` indices or boolean mask)."""
+    try:
+        m = np.array(modes, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise TypeError("modes must be an array of mode indices or a boolean mask") from exc
+    if m.dtype == bool:
+        if m.shape != (n,):
+            raise ValueError(f"modes as a boolean mask must have {n} entries, got {m.shape}")
+        idx = np.flatnonzero(m)
+    elif m.ndim == 1 and (m.size == 0 or np.issubdtype(m.dtype, np.integer)):
+        idx = m.astype(int)
+        if np.any(idx < 0) or np.any(idx >= n):
+            raise ValueError(f"modes: index out of range [0, {n})")
+        if np.unique(idx).size != idx.size:
+            raise ValueError("modes: repeated index")
+    else:
+        raise TypeError("modes must be a 1-D array of mode indices or a boolean mask")
+    if idx.size == 0:
+        raise ValueError("modes selects no mode")
+    return idx

@@ -26,14 +26,15 @@ from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_collocated
+from sdctrl.identification._collocated_scaling import proper_phase, unscaled_poles
 from sdctrl.identification._complex_modes import scale_residues
 from sdctrl.identification._properness import proper_modes
 from sdctrl.identification._reduced_matrices import transformation
 from sdctrl.identification._reciprocity import needs_transpose, via_transpose
 from sdctrl.identification._normal_statistics import with_std
-from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, residual_block,
-                                               split_modes)
-from sdctrl.identification._proper_terms import (asymptotic_terms, model_residues,
+from sdctrl.identification._mode_split import (OUT_OF_BAND, improper_terms, mode_selection,
+                                               residual_block, split_modes)
+from sdctrl.identification._proper_terms import (asymptotic_terms, fitted_to_frf, model_residues,
                                                   phib_from_residues, pole_error)
 
 __all__ = ["Properness", "normal_modes", "scaled_modes"]
@@ -154,7 +155,18 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
        ``K_T phi = M_T phi Omega`` (mass-normalised): ``Omega``, ``Gamma = phi^T C_T phi``,
        ``cphi = c_T phi``;
     5. ``phib`` by linear least squares on the identified residues given the proper
-       modes (in exact data ``phib[:, a] = cphi[s, :]`` for a collocated pair ``(s, a)``).
+       modes (in exact data ``phib[:, a] = cphi[s, :]`` for a collocated pair ``(s, a)``);
+    6. the rows of ``phib`` of close modes (whose FRF contributions overlap, their residues
+       traded between them by noise and by the correction) refitted to the identified FRF
+       relative to its level, the logLS cost (3.12) linearised
+       (:func:`~sdctrl.identification._proper_terms.fitted_to_frf`): a small transfer where
+       their large contributions nearly cancel keeps its anti-resonances.
+
+    A mode whose collocated residues are all within 3 standard deviations (3.58) -- a
+    localised mode far from every shaker -- is not scaled by the test: its scaling's phase in
+    step 1 is then that of a proper mode (3.40) and its least-squares magnitude is kept, with
+    a warning (:mod:`~sdctrl.identification._collocated_scaling`); its mass scale is not
+    measured.
 
     The poles of the result are the identified poles (the transformation is exact for
     proper modes); the maximum relative deviation is ``nm.properness.pole_error``.
@@ -170,9 +182,10 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     out-of-band poles the in-band modes may couple to (section 3.3's assumption fails, e.g. a
     dashpot), the identified residue minus the normal mode's (3.7 against 2.15) is kept at
     the same pole in ``nm.residual`` too (reason ``"improper part: ..."``, after the other
-    poles; the normal modes are unchanged).  So the normal-mode model reproduces the
-    identified model at the tested I/O.  Which
-    poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
+    poles; the normal modes are unchanged), for close modes together: all of a group's when
+    one, or their sum, is significant (:mod:`~sdctrl.identification._close_modes`).  So the
+    normal-mode model reproduces the identified model at the tested I/O.  Which poles
+    became modes: ``nm.properness.poles_used``; which stayed residual and why:
     ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
     dynamics have no shapes: :meth:`~sdctrl.NormalModeModel.modified`,
     :meth:`~sdctrl.NormalModeModel.with_feedback` and ``with_io`` act on the normal modes
@@ -262,7 +275,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     in_band = np.asarray(cm.in_band, bool)
     reasons = {}
     if modes is not None:
-        cand = _mode_selection(modes, cm.n)
+        cand = mode_selection(modes, cm.n)
     elif in_band.all() or not in_band.any():
         cand = np.arange(cm.n)
     else:
@@ -270,8 +283,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         reasons = {int(j): OUT_OF_BAND for j in np.flatnonzero(~in_band)}
     if needs_transpose(cm, cand.size):
         return _transposed(cm, pairs, modes=modes, tol=tol, maxiter=maxiter, std=std)
-    sel, failed = split_modes(cand, cm.ns,
-                              lambda idx: _transform(cm, idx, pairs, tol, maxiter, False))
+    free = unscaled_poles(cm, pairs, cand)          # scaling phase from properness (3.40)
+    sel, failed = split_modes(cand, cm.ns, lambda idx: _transform(
+        cm, idx, pairs, tol, maxiter, False, free=free))
     if sel.size == 0:
         raise ValueError("cm: no pole can be made a normal mode (" + "; ".join(
             f"{j}: {why}" for j, why in sorted({**reasons, **failed}.items())) + ")")
@@ -281,8 +295,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             + " -- kept as complex-mode residual dynamics (nm.residual)", RuntimeWarning,
             stacklevel=2)
     reasons.update(failed)
-    nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons))
-    extra = improper_terms(cm, nm, sel, reasons)
+    nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons), free=free)
+    nm, extra = fitted_to_frf(cm, nm, sel, improper_terms(cm, nm, sel, reasons))   # step 6
     return nm.replace(residual=residual_block(cm, reasons, extra))
 
 
@@ -304,9 +318,10 @@ def _transposed(cm, pairs, **options):
     return nm.replace(residual=None if res is None else res.transposed(), std=sd)
 
 
-def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
+def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=(), free=()):
     """Steps 1-5 of :func:`normal_modes` on the poles ``sel`` of ``cm`` (``residual``: the
-    poles kept as residual dynamics, not left out), scale-free.
+    poles kept as residual dynamics, not left out; ``free``: poles whose scaling's phase
+    comes from properness, :func:`._collocated_scaling.proper_phase`), scale-free.
 
     Every step is homogeneous in the residues: they are divided by ``s = 4^m``, a power of
     two near their size (exact in floating point), and the result scaled back (``cphi``,
@@ -316,16 +331,16 @@ def _transform(cm, sel, pairs, tol, maxiter, std=True, residual=()):
     peak = float(np.abs(np.asarray(cm.residues)[sel]).max()) if len(sel) else 0.0
     m = int(np.frexp(peak)[1]) // 2 if np.isfinite(peak) and peak > 0 else 0
     if m == 0:
-        nm = _transform_scaled(cm, sel, pairs, tol, maxiter, residual)
+        nm = _transform_scaled(cm, sel, pairs, tol, maxiter, residual, free)
     else:
         s = 4.0**m
         nm = _scaled_back(_transform_scaled(cm.replace(
             residues=np.asarray(cm.residues) / s, E=None if cm.E is None else cm.E / s,
             F=None if cm.F is None else cm.F / s, statistics=None), sel, pairs, tol, maxiter,
-            residual), s, 2.0**m)
+            residual, free), s, 2.0**m)
     if not std:
         return nm
-    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False)  # noqa: E731 -- (3.4)
+    again = lambda c: _transform(c, sel, pairs, tol, maxiter, False, free=free)  # noqa: E731
     return with_std(nm, cm, again)
 
 
@@ -341,14 +356,14 @@ def _scaled_back(nm, s: float, r: float):
                       F=None if nm.F is None else nm.F * s, properness=rec)
 
 
-def _transform_scaled(cm, sel, pairs, tol, maxiter, residual=()):
+def _transform_scaled(cm, sel, pairs, tol, maxiter, residual=(), free=()):
     """Steps 1-5 of :func:`normal_modes` on residues of order one (see :func:`_transform`)."""
     from sdctrl.modal._normal_model import NormalModeModel
 
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
     _check_poles(lam, cm.ns)
     with single_thread():                         # small matrices: BLAS threads only hurt
-        cpsi, psib = scaled_modes(R, pairs, sel)
+        cpsi, psib = scaled_modes(R, pairs, sel, unscaled=np.isin(sel, free))
         cT, sensor_ev = _reduced_coordinates(cpsi, lam)
         psi = cT.T @ cpsi                                              # (3.46) LS fit
         # --- properness (3.40) by the optimal correction (3.51)-(3.52) ------------------
@@ -432,7 +447,7 @@ def _mode_in_band(w2, lam, in_band) -> np.ndarray:
 
 
 # --- steps ---------------------------------------------------------------------------------
-def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, np.ndarray]:
+def scaled_modes(residues: np.ndarray, pairs, index=None, unscaled=None):
     """Scaled complex modal observability and controllability, eq. (3.24)-(3.25).
 
     The dyadic part of each residue ``R_j ~ u_j w_j^T`` (first singular pair, 3.23) is
@@ -449,6 +464,9 @@ def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, n
         Collocated (sensor, actuator) index pairs.
     index : sequence of int, optional
         Index of each mode in the complex-mode model, for the error messages.
+    unscaled : ndarray of bool, shape (n,), optional
+        Modes whose collocated residues are noise: their scaling takes the phase of a proper
+        mode (:func:`~sdctrl.identification._collocated_scaling.proper_phase`).
 
     Returns
     -------
@@ -456,6 +474,8 @@ def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, n
     psib : ndarray, shape (n, na)
     """
     cpsi, psib, k = scale_residues(residues, pairs)
+    if unscaled is not None and np.any(unscaled):
+        cpsi, psib = proper_phase(cpsi, psib, k["z"], unscaled)
     index = range(cpsi.shape[1]) if index is None else index
     for i, j in enumerate(index):
         if k["sigma1"][i] == 0:
@@ -468,25 +488,3 @@ def scaled_modes(residues: np.ndarray, pairs, index=None) -> tuple[np.ndarray, n
                              f"{tuple(pairs)}; it cannot be scaled (3.24)")
     return cpsi, psib
 
-
-def _mode_selection(modes, n: int) -> np.ndarray:
-    """Validated integer indices of the selected modes (``modes`` indices or boolean mask)."""
-    try:
-        m = np.array(modes, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise TypeError("modes must be an array of mode indices or a boolean mask") from exc
-    if m.dtype == bool:
-        if m.shape != (n,):
-            raise ValueError(f"modes as a boolean mask must have {n} entries, got {m.shape}")
-        idx = np.flatnonzero(m)
-    elif m.ndim == 1 and (m.size == 0 or np.issubdtype(m.dtype, np.integer)):
-        idx = m.astype(int)
-        if np.any(idx < 0) or np.any(idx >= n):
-            raise ValueError(f"modes: index out of range [0, {n})")
-        if np.unique(idx).size != idx.size:
-            raise ValueError("modes: repeated index")
-    else:
-        raise TypeError("modes must be a 1-D array of mode indices or a boolean mask")
-    if idx.size == 0:
-        raise ValueError("modes selects no mode")
-    return idx

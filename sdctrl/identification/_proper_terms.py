@@ -1,16 +1,28 @@
 """The terms of a normal-mode model built from proper complex modes (thesis 3.3): the
 asymptotic terms ``E`` and ``F`` kept when not negligible (3.7), the real input shapes
-``phib`` fitted to the residues, the residues of the result and the check of its poles
-against the identified ones (steps 4-5 of :func:`sdctrl.normal_modes`).
+``phib`` fitted to the residues, then, for close modes, to the identified FRF relative to
+its level (:func:`fitted_to_frf`), the residues of the result and the check of its poles against the
+identified ones (steps 4-5 of :func:`sdctrl.normal_modes`).
 
 Internal module: the functions trust their inputs (validated by ``normal_modes``).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-__all__ = ["asymptotic_terms", "model_residues", "phib_from_residues", "pole_error"]
+from sdctrl.identification._close_modes import close_groups
+from sdctrl.identification._complex_modes import frf_array
+
+__all__ = ["asymptotic_terms", "fitted_to_frf", "model_residues", "phib_from_residues",
+           "pole_error"]
+
+#: lines of the uniform grid over the band on which :func:`fitted_to_frf` fits ``phib``
+GRID_LINES = 400
+#: and, around each mode, points at these multiples of its half-power half-bandwidth ``-Re l``
+POLE_OFFSETS = (-3.0, -1.0, -0.5, 0.0, 0.5, 1.0, 3.0)
 
 
 def asymptotic_terms(E, F, lam, R, rtol: float = 1e-10):
@@ -58,3 +70,99 @@ def pole_error(p_model: np.ndarray, p_id: np.ndarray) -> float:
     cost = np.abs(p_id[:, None] - p_model[None, :]) / np.abs(p_id)[:, None]
     r, c = linear_sum_assignment(cost)
     return float(cost[r, c].max()) if r.size else 0.0
+
+
+def fitted_to_frf(cm, nm, sel, improper):
+    """Step 6 of :func:`sdctrl.normal_modes`: the rows of ``phib`` of close modes refitted to
+    the identified FRF relative to its level, and the kept improper parts recomputed for it.
+
+    The residues of close modes (:func:`~sdctrl.identification._close_modes.close_groups`)
+    are determined by the test much less well than their sum, and a small transfer is the
+    near-cancellation of their large contributions: the residue fit of step 5
+    (:func:`phib_from_residues`), dominated by the largest entries of each residue, keeps
+    every residue within its noise and still shifts the anti-resonances of the small
+    transfers (the truss's close pair at 15.8/15.9 Hz).  The logLS cost (3.12) that judges
+    the model weighs every level alike; its linearisation ``|H_nm / H - 1|^2`` (``H`` the
+    identified FRF, 3.7) is a weighted least squares, linear in ``phib``, on
+    :data:`GRID_LINES` lines over the band and :data:`POLE_OFFSETS` around each pole.  Only
+    the rows of the close modes whose improper parts are not kept change (the others keep
+    the residue fit, whose collocation ``phib[:, a] ~ cphi[s]`` the hybrid models build on,
+    5.1): the fit is on the contributions (2.9, one pole each) of the modes whose parts are
+    not kept against the identified model's at those poles -- the kept ones reproduce their
+    identified residues whatever ``phib``; their improper parts are then the identified
+    residues minus the new normal modes'.  Without a band (a model built from matrices) or
+    without such a group, nothing changes.  ``nm.std`` (3.4) stays that of steps 1-5.
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The identified model (displacement residues, band in Hz).
+    nm : NormalModeModel
+        Its normal modes (poles ``sel``), ``phib`` from the residues (step 5).
+    sel : ndarray of int
+        Poles of ``cm`` made normal modes.
+    improper : (ndarray of int, ndarray)
+        :func:`~sdctrl.identification._mode_split.improper_terms` on ``nm``.
+
+    Returns
+    -------
+    nm : NormalModeModel
+        With the refitted rows of ``phib`` (``properness.residue_error`` and
+        ``collocation_error`` updated).
+    improper : (ndarray of int, ndarray)
+        The same poles, their improper parts against the new normal modes.
+    """
+    from sdctrl.identification._mode_split import modal_factors
+
+    idx = improper[0]
+    sel = np.asarray(sel, int)
+    lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
+    free = ~np.isin(sel, idx)
+    group = close_groups(lam)
+    grouped = free & np.isin(group, group[group != np.arange(sel.size)])
+    if cm.band is None or not grouped.any():
+        return nm, improper
+    X, Y = modal_factors(nm, lam)                           # R_nm,j = X_j (Y_j^T phib)
+    lo, hi = 2 * np.pi * np.asarray(cm.band, float)
+    w = np.concatenate([np.linspace(lo, hi, GRID_LINES),
+                        (lam.imag[:, None] - lam.real[:, None] * POLE_OFFSETS).ravel()])
+    s = 1j * np.unique(w[(w >= lo) & (w <= hi)])
+    zero = np.zeros((cm.ns, cm.na))
+    H = frf_array(np.asarray(cm.poles), np.asarray(cm.residues),
+                  zero if cm.E is None else np.asarray(cm.E), cm.F, s)
+    target = frf_array(lam[free], R[free], zero, None, s)
+    g = 1.0 / (s[:, None] - lam[free][None, :])
+    gc = 1.0 / (s[:, None] - lam[free].conj()[None, :])
+    Xf, Yf = X[:, free], Y[:, free]
+    G = (np.einsum("ij,kj,wj->wik", Xf, Yf, g)
+         + np.einsum("ij,kj,wj->wik", Xf.conj(), Yf.conj(), gc))         # (nf, ns, n)
+    mod = np.abs(H)
+    weight = 1.0 / np.maximum(mod, 1e-12 * mod.max()) if mod.max() > 0 else np.ones_like(mod)
+    rows = _rows(nm, lam[grouped])                           # the normal modes of the groups
+    target = target - G @ nm.phib                            # what step 5 leaves
+    phib = np.array(nm.phib)
+    for a in range(cm.na):
+        A = (G[:, :, rows] * weight[:, :, a, None]).reshape(-1, rows.size)
+        b = (target[:, :, a] * weight[:, :, a]).ravel()
+        phib[rows, a] += np.linalg.lstsq(np.vstack([A.real, A.imag]),
+                                         np.concatenate([b.real, b.imag]), rcond=None)[0]
+    new = nm.replace(phib=phib, std=nm.std)
+    Rn = np.einsum("ij,jk->jik", X, Y.T @ phib)
+    p = nm.properness
+    record = replace(
+        p, residue_error=float(np.linalg.norm(Rn - R) / max(np.linalg.norm(R), 1e-300)),
+        collocation_error=max(float(np.linalg.norm(phib[:, a] - new.cphi[i])
+                                    / max(np.linalg.norm(new.cphi[i]), 1e-300))
+                              for i, a in p.collocated))
+    keep = np.isin(sel, idx)
+    order = np.argsort(sel[keep])
+    return new.replace(properness=record), (sel[keep][order], (R - Rn)[keep][order])
+
+
+def _rows(nm, poles) -> np.ndarray:
+    """Index of the normal mode of ``nm`` matching each pole (by frequency, one to one)."""
+    from scipy.optimize import linear_sum_assignment
+
+    w = np.sqrt(np.clip(np.diag(nm.Omega), 0, None))
+    r, c = linear_sum_assignment(np.abs(np.abs(poles)[:, None] - w[None, :]))
+    return c[np.argsort(r)]
