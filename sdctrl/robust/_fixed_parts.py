@@ -13,7 +13,11 @@ Internal module: the functions trust their inputs.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
+
+from sdctrl._lib.validate import readonly
 
 __all__ = ["append_block", "mass_block"]
 
@@ -26,8 +30,13 @@ def append_block(A, B, C, block):
     return A, np.vstack([B, Be]), np.hstack([C, Ce])
 
 
+@functools.lru_cache(maxsize=16)
 def mass_block(model):
     """The correction modes of the residual mass ``F`` (2.23) of ``model``, certain.
+
+    Taken from the model's own realisation once per model (models are immutable; the cache
+    holds a few, by identity), so that every perturbed model of an uncertain model appends
+    the same block without realising the model again.
 
     Parameters
     ----------
@@ -37,9 +46,10 @@ def mass_block(model):
     Returns
     -------
     tuple or None
-        ``(A, B, C, state names)`` of the states of ``model.to_statespace()`` (displacement)
-        that follow its modes and residual dynamics (``3 na`` states ``zr``, ``dzr``,
-        ``ddzr``), or None when the model has no ``F``.
+        ``(A, B, C, state names)`` of the states ``model.to_statespace()`` (displacement)
+        appends for ``F`` after its modes and residual dynamics (``3 na`` states ``zr``,
+        ``dzr``, ``ddzr``: critically damped a decade below the band), read-only, or None
+        when the model has no ``F``.
     """
     if getattr(model, "F", None) is None:
         return None
@@ -51,4 +61,5 @@ def mass_block(model):
     if np.any(A[:k, k:]) or np.any(A[k:, :k]):
         raise RuntimeError("mass_block: the model's realisation does not end with a "
                            "decoupled block of F's correction modes")
-    return A[k:, k:], B[k:], C[:, k:], list(own.state_labels[k:])
+    return (readonly(A[k:, k:].copy()), readonly(B[k:].copy()), readonly(C[:, k:].copy()),
+            tuple(own.state_labels[k:]))

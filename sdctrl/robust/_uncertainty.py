@@ -22,7 +22,6 @@ the closed-loop modules.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 
@@ -151,8 +150,6 @@ class UncertainModel(FrozenState):
     dpoles: np.ndarray | None = None
     dresidues: np.ndarray | None = None
 
-    _transient = ("_cache", "_mass_block")
-
     def __repr__(self) -> str:
         kinds = {}
         for _, (kind, _i, _j), _r, _b in self.params:
@@ -207,7 +204,7 @@ class UncertainModel(FrozenState):
             A, B, C = append_block(A, B, C, self._mass_block)
         return A, B, C, D if m.E is None else D + m.E
 
-    @cached_property
+    @property
     def _mass_block(self):
         """The model's correction modes of ``F``, certain (:func:`._fixed_parts.mass_block`)."""
         return mass_block(self.model)
@@ -220,7 +217,7 @@ class UncertainModel(FrozenState):
         if res is not None:
             states += (residual_states(res.m, m.na) if self.dresidues is not None
                        else list(res.realisation(m.sensors, m.actuators)[3]))
-        return states + ([] if self._mass_block is None else self._mass_block[3])
+        return states + ([] if self._mass_block is None else list(self._mass_block[3]))
 
     def compact_lft(self) -> CompactLFT:
         """The Delta channels through the few signals they read and drive (exact, affine).
