@@ -6,9 +6,11 @@ D-strut design) against the truth and the deliberately wrong FE model
 x1.5 for the errors), so that no change trades one structure for another; the issue's
 targets (nominal no worse than the normal-mode model, >= 12x, >= 3x, RMS within 2%) are
 asserted where the member reaches them and the gap is stated where it does not.  The
-hybrids are ``residual="auto"``: the representation chosen by leave-one-out
-prediction on the test's own channels (:mod:`sdctrl.hybrids._auto`), its choice and the
-scores that made it asserted per member.
+hybrids are built with :func:`sdctrl.hybrid`'s default, ``residual="auto"``: the
+representation chosen by leave-one-out prediction on the test's own channels
+(:mod:`sdctrl.hybrids._auto`), its choice and the scores that made it asserted per member.
+The former default, ``residual="identified"``, keeps its own locked figures
+(:data:`IDENTIFIED_MEASURED`).
 """
 
 import functools
@@ -21,7 +23,7 @@ import sdctrl as sd
 from family_struts import figures
 from sdctrl.hybrids._auto import TIE
 
-#: measured figures per (member, noise), hybrid ``residual="auto"``: logLS of the
+#: measured figures per (member, noise), the default hybrid (``residual="auto"``): logLS of the
 #: nominal hybrid and of the identified normal-mode model at the tested I/O; wrong-FE/hybrid
 #: logLS ratios of a D-strut, a broken strut and an untested shaker; relative error of the
 #: D-strut design's closed-loop band RMS by the hybrid and by the wrong FE (seed 1, 400 lines;
@@ -94,13 +96,16 @@ def _models(name, noise):
 
 
 @functools.lru_cache(maxsize=None)
-def _build(name, noise, residual="auto"):
+def _build(name, noise, residual=None):
+    """The member's hybrids with every shaker and without the last one: ``sd.hybrid``'s
+    default (``residual=None``) or the given representation."""
     st, nm, nm_minus = _models(name, noise)
     SH, SE = list(st.shakers), list(st.sensors)
+    kw = {} if residual is None else {"residual": residual}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        h = sd.hybrid(st.wrong(), nm, SE, SH, residual=residual)
-        h_minus = sd.hybrid(st.wrong(), nm_minus, SE, SH[:-1], residual=residual)
+        h = sd.hybrid(st.wrong(), nm, SE, SH, **kw)
+        h_minus = sd.hybrid(st.wrong(), nm_minus, SE, SH[:-1], **kw)
     return st, nm, h, h_minus
 
 
@@ -167,12 +172,20 @@ def test_hybrid_predictions_locked_per_member(name, noise):
         assert np.all(h.cphi[:, ~h.measured] == 0)
 
 
-#: the default hybrid (``residual="identified"``: FE modes and fitted residual terms at the
-#: tested I/O; ``"auto"`` stays opt-in -- it chooses ``"tested"``, whose residual block and
-#: ``F`` keep placement off its chunked path and add states) at 1% noise, figures as above
-#: (measured on the merged state): its nominal is 1.2x (truss) to 19x (plate) the
-#: normal-mode model's -- the gap of issue 22 that ``"auto"`` closes
-DEFAULT_MEASURED = {
+#: the former default, ``residual="identified"`` (FE modes and fitted residual terms at the
+#: tested I/O), at 1% noise, figures as above: its nominal is 1.2x (truss) to 19x (plate)
+#: the normal-mode model's -- the gap of issue 22 that the default ``"auto"`` closes.  What
+#: the default changed, per member (1%, MEASURED against these): nominal logLS truss 0.0166
+#: -> 0.0135, truss_high 0.0282 -> 0.0041, ladder 0.0195 -> 0.0019, plate 0.027 -> 0.0015;
+#: D-strut truss 103 -> 112x, truss_high 55 -> 123x, ladder 80 -> 808x, plate 36 -> 644x;
+#: broken strut truss_high 4.6 -> 4.7x, ladder 67 -> 355x, plate 9.6 -> 12.7x; RMS error truss
+#: 0.23% -> 0.03%, truss_high 0.68% -> 0.28%, plate 0.08% -> 0.02%.  Worse: the truss's broken
+#: strut 6.86 -> 6.51x, and the cluster at 1% (where "auto" chooses "fe" with every shaker,
+#: see CHOSEN_AT; both representations are poor there, the identified model itself at 0.94):
+#: nominal 0.314 -> 0.375, D-strut 0.68 -> 0.57x, broken strut 0.68 -> 0.58x, RMS error
+#: 0.24% -> 0.25%; the untested shaker is the same figure in both (its hybrid is built
+#: without that shaker and predicts through FE shapes alike)
+IDENTIFIED_MEASURED = {
     'truss': (0.0166, 0.01354, 102.76, 6.86, 24.23, 0.0023),
     'truss_high': (0.0282, 0.00405, 54.74, 4.6, 19.79, 0.0068),
     'ladder': (0.0195, 0.00184, 79.81, 67.15, 27.18, 0.0002),
@@ -181,15 +194,20 @@ DEFAULT_MEASURED = {
     # 1.02822, 0.31, 0.32, 0.11, 0.003
 }
 _MET = {"truss", "truss_high", "ladder", "plate"}
-DEFAULT_TARGETS = {"dstrut": _MET, "broken": _MET, "shaker": _MET, "rms": _MET}
+IDENTIFIED_TARGETS = {"dstrut": _MET, "broken": _MET, "shaker": _MET, "rms": _MET}
 
 
 @pytest.mark.parametrize("name", sd.testbeds.family())
-def test_default_hybrid_locked_per_member(name):
+def test_identified_hybrid_locked_per_member(name):
     st, nm, d, d_minus = _build(name, 0.01, "identified")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         got = figures(st, nm, d, d_minus)
-    print(f"\n{name} default: {got}")
+    print(f"\n{name} identified: {got}")
     assert d.construction.residual.representation == "identified"
-    _check(got, DEFAULT_MEASURED[name], name, DEFAULT_TARGETS)
+    assert d.construction.residual.chosen_by is None          # given, not chosen
+    _check(got, IDENTIFIED_MEASURED[name], name, IDENTIFIED_TARGETS)
+    # the default (MEASURED) is no worse at the tested I/O wherever "auto" keeps the test's
+    # own residual terms ("tested"): all but the cluster at 1%, stated above
+    if CHOSEN_AT.get((name, 0.01, "all"), CHOSEN[name]) == "tested":
+        assert MEASURED[(name, 0.01)][0] <= got.nominal
