@@ -106,7 +106,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       the FE modes and, holding out an actuator, the expansion prior.  On the family of
       test structures it keeps ``"tested"`` (the cluster at 1% noise with every shaker:
       ``"fe"``), whose nominal model is the identified one at the tested I/O, where
-      ``"identified"`` is 1.2x (truss) to 19x (plate) further from it; its StateSpace then
+      ``"identified"`` is 1.2x (truss) to 45x (plate) further from it; its StateSpace then
       carries the residual dynamics and ``F``'s correction modes (more states, see
       :meth:`~sdctrl.modal.NormalModeModel.to_statespace`);
     - residual terms (``residual="identified"``): the test's residual flexibility
