@@ -173,7 +173,18 @@ def test_every_model_file_loads_back(demo):
     assert test.H.shape == (1000, 31, 6) and len(test.collocated) == 6
     hy = sd.load(out / "hybrid.npz")
     G = hy.to_statespace("acceleration")
-    assert G.nstates == 2 * hy.n and "N32_z" in G.output_labels
+    # the documented state count (NormalModeModel.to_statespace, Notes): 2 per mode, the
+    # residual dynamics' blocks at the tested I/O, a correction-filter pair per actuator when
+    # needed (E, or for acceleration the residual dynamics' s term, 2.19-2.20) and 3 states
+    # per actuator for the residual mass F (correction modes a decade below the band); the
+    # default hybrid (residual="auto") keeps the test's residual dynamics and F there
+    n_res = 0 if hy.residual is None else len(hy.residual.realisation(hy.sensors,
+                                                                       hy.actuators)[3])
+    n_filter = 2 * hy.na if hy.E is not None or n_res else 0
+    n_low = 3 * hy.na if hy.F is not None else 0
+    assert G.nstates == 2 * hy.n + n_res + n_filter + n_low and "N32_z" in G.output_labels
+    assert sum(x.startswith("zr") for x in G.state_labels) == (hy.na if n_low else 0)
+    assert hy.construction.residual.chosen_by == "leave-one-actuator-out"
 
 
 def test_diagnosis_names_the_planted_effect(demo):

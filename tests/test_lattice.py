@@ -121,6 +121,18 @@ def test_lowrank_placement_equals_full_reanalysis(lat):
     assert np.mean([np.mean(c.damping) for c in st.candidates]) > np.mean(st.damping)
 
 
+#: relative accuracy of the dense reference ``sd.rms(cl.to_statespace())`` on the default
+#: hybrid (``residual="auto"`` keeps the test's residual dynamics and F: 239 closed-loop
+#: states, defective clusters -- F's triple poles, the static modes -- so the band integral
+#: falls back to matrix logarithms).  Measured against a third, independent reference, an
+#: adaptive quadrature of sum |H(j 2 pi f)|^2 over the band (scipy.integrate.quad_vec,
+#: epsrel 1e-13, breakpoints at the in-band poles, its error estimate 3e-10 of the integral),
+#: on the 6 bars below: the placement's array path agrees with the quadrature to 3.2e-14 at
+#: worst, the logm reference to 1.17e-7 (1.8e-8 to 1.17e-7 per bar).  The array path is
+#: right; the tolerance is the dense reference's own error, x2.5
+DENSE_RTOL = 3e-7
+
+
 def test_lowrank_placement_on_the_hybrid_equals_its_feedback(lat, chain):
     _, up, _, h, _ = chain
     assert h.static_ready                       # each strut gets its static correction mode
@@ -130,7 +142,7 @@ def test_lowrank_placement_on_the_hybrid_equals_its_feedback(lat, chain):
         s = up.fe.strut(*c.bar)
         cl = h.with_feedback(s, s.T, kv=300.0)
         assert cl.n == h.n + 1
-        assert np.allclose(c.rms, rms(cl.to_statespace(), lat.band), rtol=1e-8, atol=0)
+        assert np.allclose(c.rms, rms(cl.to_statespace(), lat.band), rtol=DENSE_RTOL, atol=0)
     with ThreadPoolExecutor(2) as ex:
         par = placement_study(h, up.fe, lat.band, kv=300.0, candidates=bars, progress=False,
                               executor=ex)

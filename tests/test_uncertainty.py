@@ -212,14 +212,69 @@ def test_multi_test_statistics_recovers_spread():
     assert len(um.blocks) > 0
 
 
-def test_residual_mass_term_is_refused():
+def _with_fixed_parts():
+    """The thesis two-mode example (5.6) with every certain part a model can carry: a residual
+    flexibility E, a residual mass F (realised by correction modes a decade below the band,
+    2.19-2.20) and residual dynamics (one complex pole kept as it is, 3.26-3.33)."""
+    from sdctrl.modal import ResidualDynamics
     m = two_mode()
-    mF = m.replace(F=np.full((3, 1), 0.01))
-    with pytest.raises(ValueError, match="low-frequency term F"):
-        uncertain(mF, dGamma=np.diag([0.01, 0.0]))
-    # the door on the model says the same
-    with pytest.raises(ValueError, match="low-frequency term F"):
-        mF.uncertain(dGamma=np.diag([0.01, 0.0]))
+    res = ResidualDynamics(np.array([-0.05 + 2.5j]), np.array([[[0.02 + 0.01j], [-0.03j],
+                                                                  [0.01 + 0j]]]),
+                           sensors=m.sensors, actuators=m.actuators)
+    return m.replace(E=np.array([[0.01], [-0.02], [0.005]]), F=np.full((3, 1), 0.01),
+                     residual=res)
+
+
+def test_e_f_and_residual_dynamics_are_certain_parts():
+    """E, F and the residual dynamics are fixed parts of the plant: the uncertain model's
+    nominal StateSpace is the model's own, its LFT closes exactly on the perturbed models,
+    the perturbation moves only Omega/Gamma/phib/cphi, and robust stability runs on it."""
+    import control
+
+    from sdctrl.modal._normal_realisation import default_omega_f
+    from sdctrl.robust import robust_stability
+    mF = _with_fixed_parts()
+    bounds = {"dGamma": np.diag([0.01, 0.005]), "dOmega": [[0.1, 0.05], [0.05, 0.1]]}
+    um = uncertain(mF, **bounds)
+    with pytest.warns(RuntimeWarning, match="residual dynamics"):       # the door agrees
+        assert mF.uncertain(**bounds).nominal.nstates == um.nominal.nstates
+    own, nom = mF.to_statespace(), um.nominal
+    for X in "ABCD":                                   # bit for bit, state names included
+        assert np.array_equal(getattr(nom, X), getattr(own, X))
+    assert nom.state_labels == own.state_labels and nom.nstates == 2 * 2 + 2 + 3
+    assert [x for x in nom.state_labels[-3:]] == ["zr0", "dzr0", "ddzr0"]
+    P, blocks = um.lft()
+    w = np.linspace(0.05, 3.0, 80)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        d = rng.uniform(-1, 1, len(blocks))
+        s = um.perturbed(d)
+        H = ss_frf(s.A, s.B, s.C, s.D, w)
+        assert np.max(np.abs(close_lft(P, blocks, d, w) - H)) <= 1e-8 * np.max(np.abs(H))
+        # the certain part is untouched: the perturbed model is the model with the perturbed
+        # Omega/Gamma and the nominal's E, residual dynamics and F's correction modes (their
+        # corner w_f the nominal's: by default it follows the modes' frequencies)
+        Om, Ga = _omega_gamma(control.ss(s.A[:4, :4], s.B[:4], s.C[:, :4], 0 * s.D))
+        mm = mF.replace(Omega=Om, Gamma=Ga, omega_f=default_omega_f(mF))
+        ref = mm.to_statespace()
+        np.testing.assert_allclose(ss_frf(s.A, s.B, s.C, s.D, w),
+                                   ss_frf(ref.A, ref.B, ref.C, ref.D, w), rtol=1e-12,
+                                   atol=1e-14)
+    # F's correction modes are stable (a triple pole a decade below the band), so the loop
+    # can be robustly stable: collocated rate feedback on the first sensor
+    assert np.all(np.linalg.eigvals(nom.A).real < 0)
+    K = control.ss(control.tf([0.5, 0.0], [1.0, 2.0])) * control.ss([], [], [], [[1.0, 0.0, 0.0]])
+    r = robust_stability(um, K)
+    assert r.stable and 0 < r.margin <= r.margin_lower * (1 + 1e-6)
+    cl = control.feedback(um.perturbed(r.worst_delta * 1.001), K, sign=-1)
+    assert np.max(np.linalg.eigvals(cl.A).real) >= -1e-9
+    for d in rng.uniform(-1, 1, size=(100, len(blocks))):
+        d = 0.99 * r.margin * d / np.max(np.abs(d))
+        cl = control.feedback(um.perturbed(d), K, sign=-1)
+        assert np.max(np.linalg.eigvals(cl.A).real) < 0
+    # without F the same model is the same plant less F's response (3 states fewer)
+    um0 = uncertain(mF.replace(F=None), **bounds)
+    assert um0.nominal.nstates == nom.nstates - 3
 
 
 def test_compact_lft_reads_and_drives_few_signals():

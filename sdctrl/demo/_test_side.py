@@ -289,6 +289,7 @@ class NormalModes:
         from sdctrl.report import markdown_table
 
         nm = self.nm
+        n_states = nm.to_statespace("acceleration").nstates
         s = doc.section("normal_modes", "Normal modes and the non-proportional damping matrix")
         s.paragraph(
             "`sd.normal_modes(cm, modes=cm.in_band)` (section 3.3): complex modal "
@@ -297,7 +298,9 @@ class NormalModes:
             "(3.44) to mass, damping and stiffness matrices and the undamped reduced "
             "eigenproblem: `Omega` (frequencies), the full `Gamma` (damping, coupling terms "
             "kept) and `cphi`, `phib`. The result is a control-ready model: "
-            f"`nm.to_statespace('acceleration')` has {2 * nm.n} states, outputs named after the "
+            f"`nm.to_statespace('acceleration')` has {n_states} states ({2 * nm.n} for the "
+            "modes, the others the correction modes of `E` and `F`, 2.19-2.24), outputs named "
+            "after the "
             "sensors and inputs after the shakers plus `_u`. `modes=cm.in_band` keeps the "
             "modes of the band alone, for this table and its comparisons; a model that "
             "predicts (a hybrid, control near the band edges) uses the default, "

@@ -59,7 +59,7 @@ _RESIDUALS = ("identified", "fe", "tested")
 # ----------------------------------------------------------------------------------------
 def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
            static_b=None, mac_min: float = MAC_POOR, expansion: str = "regularised",
-           residual: str = "identified") -> HybridModel:
+           residual: str = "auto") -> HybridModel:
     """Hybrid experimental/analytical normal-mode model, eq. (5.1).
 
     Built from an identified normal-mode model ``nm`` (as returned by
@@ -92,10 +92,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       mean measured one, no damping coupling;
     - static correction modes (2.21) of the test inputs, made consistent with those
       shapes (:func:`sdctrl.fe._static.consistent_static_modes`), critically damped (2.20);
-    - residual representation chosen from the test (``residual="auto"``; not yet the
-      default: its choice, "tested" on every member of the family, carries ``F`` and the
-      residual block, which the chunked D-strut placement and the demo's state count do
-      not take yet): each of ``"identified"``,
+    - residual representation chosen from the test (``residual="auto"``, the default): each
+      of ``"identified"``,
       ``"tested"`` (when ``nm`` has residual terms) and ``"fe"`` below is built and scored
       by leave-one-actuator-out prediction on the test's own channels (the model built
       without actuator ``j`` predicts its column through ``with_io`` on the FE DOFs,
@@ -104,9 +102,14 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       it predict alike and the one closest to ``nm`` at the tested I/O is kept; with one
       sensor and one actuator, that closest one (:mod:`sdctrl.hybrids._auto`).  The
       choice and its scores are ``construction.residual`` (``representation``,
-      ``chosen_by``, ``loo_scores``, ``nominal_scores``).  The folds reuse the FE modes
-      and, holding out an actuator, the expansion prior;
-    - residual terms (``residual="identified"``, default): the test's residual flexibility
+      ``chosen_by``, ``held_out``, ``loo_scores``, ``nominal_scores``).  The folds reuse
+      the FE modes and, holding out an actuator, the expansion prior.  On the family of
+      test structures it keeps ``"tested"`` (the cluster at 1% noise with every shaker:
+      ``"fe"``), whose nominal model is the identified one at the tested I/O, where
+      ``"identified"`` is 1.2x (truss) to 45x (plate) further from it; its StateSpace then
+      carries the residual dynamics and ``F``'s correction modes (more states, see
+      :meth:`~sdctrl.modal.NormalModeModel.to_statespace`);
+    - residual terms (``residual="identified"``): the test's residual flexibility
       ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
       over the band -- and the modal masses of the low modes are corrected to the
       identified residual mass ``F`` (a correction carried, like ``E``, by the low modes'
@@ -162,8 +165,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     expansion : {"regularised", "paired"}
         Expansion basis and fit, see above.
     residual : {"auto", "identified", "fe", "tested"}
-        Chosen by leave-one-out prediction on the test's channels, or: residual terms from
-        the test (selected against ``nm``, default), the thesis's FE modes, or the
+        Chosen by leave-one-out prediction on the test's channels (default), or: residual
+        terms from the test (selected against ``nm``), the thesis's FE modes, or the
         test's own residual dynamics, ``E`` and ``F`` kept at the tested I/O (needs an
         ``nm`` that has some: as :func:`sdctrl.normal_modes` builds it).
 

@@ -28,6 +28,7 @@ terms unless they reproduce them better.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -35,7 +36,7 @@ from sdctrl.fe._static import consistent_static_modes
 from sdctrl.modal._normal_model import NormalModeModel
 from sdctrl.updating._costs import logls
 from sdctrl.hybrids._expansion import expand, expand_regularised, loo_prior
-from sdctrl.hybrids._residual_mass import mass_bounded, mass_fit
+from sdctrl.hybrids._residual_mass import mass_bounded, mass_solve, mass_system
 
 __all__ = ["HybridBasis", "ModeSet", "band_lines", "build_basis", "fe_modes_upto",
            "select_residual", "stack_parts", "tested_offset"]
@@ -296,6 +297,19 @@ class _VariantData:
     R_t: np.ndarray
     Href: np.ndarray
 
+    @cached_property
+    def mass(self):
+        """Normal equations of the low modes' mass fit (:func:`mass_system`): the same for
+        every variant (``kappa`` moves only the target), formed once."""
+        Sl, W = self.base.low, _weights(self.Href)
+        return mass_system(self.c @ Sl, Sl.T @ self.loads, self.base.low_w2, self.zeta,
+                           self.w, W)
+
+
+def _weights(Href):
+    """Inverse squared magnitudes of the identified FRF (the logLS-like fit weights)."""
+    return 1.0 / np.maximum(np.abs(Href), 1e-300 * np.abs(Href).max()) ** 2
+
 
 def _variant(data: _VariantData, kap: float, fit: str):
     """Shapes, frequencies, damping and ``E`` of one residual variant (``kappa``, fit)."""
@@ -317,10 +331,10 @@ def _variant(data: _VariantData, kap: float, fit: str):
             gam = 2 * np.sqrt(w2) * (1.0 if crit else zeta)
             Ha = Ha + _modal_frf(c @ S, w2, gam, S.T @ loads, w)
     target = R_t - Ha
-    W = 1.0 / np.maximum(np.abs(Href), 1e-300 * np.abs(Href).max()) ** 2
+    W = _weights(Href)
     cl = c @ Sl
     if fit == "mass+E" and Sl.shape[1]:
-        P = mass_bounded(mass_fit(cl, Sl.T @ loads, wl2, zeta, w, target, W))
+        P = mass_bounded(mass_solve(data.mass, target))
         # carried, like E, by the low modes' observabilities at the tested sensors: the
         # low FE shapes (and their prediction at other DOFs) are left as they are
         parts["low_offset"] = cl @ (P - np.eye(P.shape[0]))

@@ -17,10 +17,23 @@ import numpy as np
 from sdctrl._lib.parallel import chunked, map_chunks
 from sdctrl._lib.statespace import ss_frf
 
-__all__ = ["CHUNK", "envelope_of_draws"]
+__all__ = ["CHUNK", "box_draws", "envelope_of_draws"]
 
 #: parameter draws per task of an executor
 CHUNK = 50
+
+
+def box_draws(nb: int, n_samples: int, max_vertices: int, rng) -> np.ndarray:
+    """Normalised parameter draws ``(n_draws, nb)``: every vertex of the box when there are
+    at most ``max_vertices`` (else that many random ones), then ``n_samples`` uniform
+    interior samples (drawn from ``rng`` in that order)."""
+    if nb == 0:
+        verts = np.zeros((1, 0))
+    elif 2 ** nb <= max_vertices:
+        verts = np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
+    else:
+        verts = rng.choice([-1.0, 1.0], size=(max_vertices, nb))
+    return np.vstack([verts, rng.uniform(-1, 1, size=(n_samples, nb))])
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,7 +8,8 @@ The model's residual dynamics (identified poles kept as complex modes, ``model.r
 are part of the plant, certain: their 2x2 blocks (3.26)-(3.33) follow the modal states in
 every realisation (nominal, perturbed, LFT), so that the uncertain model responds as its
 nominal model does (without them the plate's uncertain model from a survey missed half of
-its FRF in the band).
+its FRF in the band).  So are ``E`` and the correction modes of ``F``, last
+(:mod:`._fixed_parts`): the nominal StateSpace is the model's own ``to_statespace()``.
 
 Place in the flow: this module sits *before* :mod:`sdctrl.modal._normal_model` (``frf -> io -> uncertainty ->
 modal``), so that :meth:`NormalModeModel.uncertain` builds an :class:`UncertainModel` without a
@@ -36,6 +37,7 @@ from sdctrl._lib.validate import (
     readonly,
 )
 from sdctrl._lib.signals import signal_names
+from sdctrl.robust._fixed_parts import append_block, mass_block
 from sdctrl.robust._multitest import MultiTestResult, multi_test_statistics
 from sdctrl.robust._physical_bounds import default_bounds, modal_density_bound, psd_gamma_bound
 from sdctrl.robust._residual_uncertainty import (
@@ -46,7 +48,7 @@ from sdctrl.robust._residual_uncertainty import (
     residual_perturbed,
     residual_states,
 )
-from sdctrl.robust._response_bounds import envelope_of_draws
+from sdctrl.robust._response_bounds import box_draws, envelope_of_draws
 
 __all__ = [
     "CompactLFT",
@@ -197,20 +199,25 @@ class UncertainModel(FrozenState):
                 Ar, Br, Cr = residual_matrices(*(residual or self._residual()))
             else:                                    # certain: (3.26)-(3.33)
                 Ar, Br, Cr, _ = res.realisation(m.sensors, m.actuators)
-            A = np.block([[A, np.zeros((A.shape[0], Ar.shape[1]))],
-                          [np.zeros((Ar.shape[0], A.shape[1])), Ar]])
-            B, C = np.vstack([B, Br]), np.hstack([C, Cr])
+            A, B, C = append_block(A, B, C, (Ar, Br, Cr))
+        if self._mass_block is not None:             # F: certain correction modes, last
+            A, B, C = append_block(A, B, C, self._mass_block)
         return A, B, C, D if m.E is None else D + m.E
 
+    @property
+    def _mass_block(self):
+        """The model's correction modes of ``F``, certain (:func:`._fixed_parts.mass_block`)."""
+        return mass_block(self.model)
+
     def _states(self) -> list:
-        """State names: the modal ``p``, ``dp`` then the residual dynamics' ``r``, ``dr``."""
+        """State names: the modal ``p``, ``dp``, the residual dynamics', then ``F``'s."""
         m = self.model
         res = getattr(m, "residual", None)
-        if res is None:
-            return modal_states(m.n)
-        if self.dresidues is not None:
-            return modal_states(m.n) + residual_states(res.m, m.na)
-        return modal_states(m.n) + list(res.realisation(m.sensors, m.actuators)[3])
+        states = modal_states(m.n)
+        if res is not None:
+            states += (residual_states(res.m, m.na) if self.dresidues is not None
+                       else list(res.realisation(m.sensors, m.actuators)[3]))
+        return states + ([] if self._mass_block is None else list(self._mass_block[3]))
 
     def compact_lft(self) -> CompactLFT:
         """The Delta channels through the few signals they read and drive (exact, affine).
@@ -412,15 +419,8 @@ class UncertainModel(FrozenState):
         n_samples = check_int(n_samples, "n_samples", minimum=0, maximum=MAX_DRAWS)
         max_vertices = check_int(max_vertices, "max_vertices", minimum=0, maximum=MAX_DRAWS)
         executor = check_executor(executor)
-        nb = len(self.params)
         rng = np.random.default_rng(check_seed(seed))
-        if nb == 0:
-            verts = np.zeros((1, 0))
-        elif 2 ** nb <= max_vertices:
-            verts = np.array(np.meshgrid(*[[-1.0, 1.0]] * nb, indexing="ij")).reshape(nb, -1).T
-        else:
-            verts = rng.choice([-1.0, 1.0], size=(max_vertices, nb))
-        ds = np.vstack([verts, rng.uniform(-1, 1, size=(n_samples, nb))])
+        ds = box_draws(len(self.params), n_samples, max_vertices, rng)
         return envelope_of_draws(self, f, ds, executor)
 
 
@@ -431,7 +431,8 @@ def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None, *, dpoles=None,
     Parameters
     ----------
     model : NormalModeModel
-        Nominal model (``Omega``, ``Gamma``, ``phib``, ``cphi``, ``E``).
+        Nominal model (``Omega``, ``Gamma``, ``phib``, ``cphi``; ``E``, ``F``, residual
+        dynamics: certain parts, ``nominal`` is ``model.to_statespace()``).
     dGamma : array_like (n, n), optional
         Bound of each entry of ``Gamma`` (0 = certain). A symmetric pair is one parameter.
     dOmega : array_like (n, n), optional
@@ -451,11 +452,6 @@ def uncertain(model, dGamma=None, dOmega=None, db=None, dc=None, *, dpoles=None,
     -------
     UncertainModel
     """
-    if getattr(model, "F", None) is not None and np.any(model.F):
-        raise ValueError("model has a low-frequency term F (residual mass, 2.23): its "
-                         "rigid-body correction states make every loop marginally stable, so "
-                         "robustness checks would be meaningless; model the modes below the "
-                         "band explicitly or drop F (model.replace(F=None))")
     n, ns, na = model.n, model.ns, model.na
     dG = _bound(dGamma, (n, n), "dGamma", True)
     dO = _bound(dOmega, (n, n), "dOmega", True)
