@@ -117,7 +117,10 @@ def _on_fe(model, fe):
         return model, None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        hy = hybrid(fe, inner, list(inner.sensors), list(inner.actuators))
+        # only the measured modes' expanded shapes are read: the same for every residual
+        # representation, so the cheapest is built (not the default's leave-one-out choice)
+        hy = hybrid(fe, inner, list(inner.sensors), list(inner.actuators),
+                    residual="identified")
     w, wh = np.diag(inner.Omega), np.diag(hy.Omega)
     idx = np.array([int(np.argmin(np.abs(wh - x))) for x in w], dtype=int)
     if np.allclose(wh[idx], w, rtol=1e-12, atol=0) and np.unique(idx).size == idx.size:
