@@ -9,12 +9,13 @@ Internal module: the functions trust their inputs (validated by ``normal_modes``
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from sdctrl.identification._close_modes import close_groups
 from sdctrl.identification._complex_modes import frf_array
+from sdctrl.identification._normal_statistics import with_std
 
 __all__ = ["asymptotic_terms", "fitted_to_frf", "model_residues", "phib_from_residues",
            "pole_error"]
@@ -91,7 +92,12 @@ def fitted_to_frf(cm, nm, sel, improper):
     not kept against the identified model's at those poles -- the kept ones reproduce their
     identified residues whatever ``phib``; their improper parts are then the identified
     residues minus the new normal modes'.  Without a band (a model built from matrices) or
-    without such a group, nothing changes.  ``nm.std`` (3.4) stays that of steps 1-5.
+    without such a group, nothing changes.
+
+    ``nm.std`` of the refitted rows is that of the refitted values (:func:`_refit_std`):
+    the identification's statistics (3.56)-(3.59) propagated through the refit to first
+    order, exactly as :func:`~sdctrl.identification._normal_statistics.with_std` propagates
+    them through steps 1-5 (3.4); the other entries of ``nm.std`` are those of steps 1-5.
 
     Parameters
     ----------
@@ -112,8 +118,6 @@ def fitted_to_frf(cm, nm, sel, improper):
     improper : (ndarray of int, ndarray)
         The same poles, their improper parts against the new normal modes.
     """
-    from sdctrl.identification._mode_split import modal_factors
-
     idx = improper[0]
     sel = np.asarray(sel, int)
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
@@ -122,31 +126,10 @@ def fitted_to_frf(cm, nm, sel, improper):
     grouped = free & np.isin(group, group[group != np.arange(sel.size)])
     if cm.band is None or not grouped.any():
         return nm, improper
-    X, Y = modal_factors(nm, lam)                           # R_nm,j = X_j (Y_j^T phib)
-    lo, hi = 2 * np.pi * np.asarray(cm.band, float)
-    w = np.concatenate([np.linspace(lo, hi, GRID_LINES),
-                        (lam.imag[:, None] - lam.real[:, None] * POLE_OFFSETS).ravel()])
-    s = 1j * np.unique(w[(w >= lo) & (w <= hi)])
-    zero = np.zeros((cm.ns, cm.na))
-    H = frf_array(np.asarray(cm.poles), np.asarray(cm.residues),
-                  zero if cm.E is None else np.asarray(cm.E), cm.F, s)
-    target = frf_array(lam[free], R[free], zero, None, s)
-    g = 1.0 / (s[:, None] - lam[free][None, :])
-    gc = 1.0 / (s[:, None] - lam[free].conj()[None, :])
-    Xf, Yf = X[:, free], Y[:, free]
-    G = (np.einsum("ij,kj,wj->wik", Xf, Yf, g)
-         + np.einsum("ij,kj,wj->wik", Xf.conj(), Yf.conj(), gc))         # (nf, ns, n)
-    mod = np.abs(H)
-    weight = 1.0 / np.maximum(mod, 1e-12 * mod.max()) if mod.max() > 0 else np.ones_like(mod)
-    rows = _rows(nm, lam[grouped])                           # the normal modes of the groups
-    target = target - G @ nm.phib                            # what step 5 leaves
-    phib = np.array(nm.phib)
-    for a in range(cm.na):
-        A = (G[:, :, rows] * weight[:, :, a, None]).reshape(-1, rows.size)
-        b = (target[:, :, a] * weight[:, :, a]).ravel()
-        phib[rows, a] += np.linalg.lstsq(np.vstack([A.real, A.imag]),
-                                         np.concatenate([b.real, b.imag]), rcond=None)[0]
-    new = nm.replace(phib=phib, std=nm.std)
+    fit = _Refit(nm, sel, free, _rows(nm, lam[grouped]))   # the normal modes of the groups
+    phib = fit.phib(cm)
+    new = nm.replace(phib=phib, std=_refit_std(nm, cm, fit))
+    X, Y = fit.factors(lam)
     Rn = np.einsum("ij,jk->jik", X, Y.T @ phib)
     p = nm.properness
     record = replace(
@@ -157,6 +140,94 @@ def fitted_to_frf(cm, nm, sel, improper):
     keep = np.isin(sel, idx)
     order = np.argsort(sel[keep])
     return new.replace(properness=record), (sel[keep][order], (R - Rn)[keep][order])
+
+
+@dataclass(frozen=True, eq=False)
+class _Refit:
+    """The step-6 refit of :func:`fitted_to_frf` with its choices fixed: the normal modes of
+    steps 1-5 ``nm``, the poles ``sel`` of the identified model they stand for, those whose
+    improper parts are not kept (``free``, mask on ``sel``) and the rows of ``phib`` refitted."""
+
+    nm: object
+    sel: np.ndarray
+    free: np.ndarray
+    rows: np.ndarray
+
+    def factors(self, lam):
+        """``X``, ``Y`` of the normal modes at the poles ``lam`` (2.9)."""
+        from sdctrl.identification._mode_split import modal_factors
+
+        return modal_factors(self.nm, lam)
+
+    def phib(self, cm) -> np.ndarray:
+        """``phib`` of ``nm`` with :attr:`rows` refitted to the FRF of ``cm``."""
+        nm, free, rows = self.nm, self.free, self.rows
+        lam, R = np.asarray(cm.poles)[self.sel], np.asarray(cm.residues)[self.sel]
+        X, Y = self.factors(lam)                             # R_nm,j = X_j (Y_j^T phib)
+        lo, hi = 2 * np.pi * np.asarray(cm.band, float)
+        w = np.concatenate([np.linspace(lo, hi, GRID_LINES),
+                            (lam.imag[:, None] - lam.real[:, None] * POLE_OFFSETS).ravel()])
+        s = 1j * np.unique(w[(w >= lo) & (w <= hi)])
+        zero = np.zeros((cm.ns, cm.na))
+        H = frf_array(np.asarray(cm.poles), np.asarray(cm.residues),
+                      zero if cm.E is None else np.asarray(cm.E), cm.F, s)
+        target = frf_array(lam[free], R[free], zero, None, s)
+        g = 1.0 / (s[:, None] - lam[free][None, :])
+        gc = 1.0 / (s[:, None] - lam[free].conj()[None, :])
+        Xg, Xc = X[None, :, free] * g[:, None, :], X[None, :, free].conj() * gc[:, None, :]
+        Yf = Y[:, free]
+        G = Xg @ Yf[rows].T + Xc @ Yf[rows].conj().T                 # (nf, ns, rows)
+        mod = np.abs(H)
+        weight = (1.0 / np.maximum(mod, 1e-12 * mod.max()) if mod.max() > 0
+                  else np.ones_like(mod))
+        Yb = Yf.T @ nm.phib
+        target = target - (Xg @ Yb + Xc @ Yb.conj())                  # what step 5 leaves
+        phib = np.array(nm.phib)
+        for a in range(cm.na):
+            A = (G * weight[:, :, a, None]).reshape(-1, rows.size)
+            b = (target[:, :, a] * weight[:, :, a]).ravel()
+            phib[rows, a] += np.linalg.lstsq(np.vstack([A.real, A.imag]),
+                                             np.concatenate([b.real, b.imag]), rcond=None)[0]
+        return phib
+
+
+def _refit_std(nm, cm, fit: _Refit):
+    """``nm.std`` with the rows of ``phib`` refitted by ``fit`` given the standard deviation
+    of the refitted values; None stays None.
+
+    The refit is a function of the identified poles and residues (the FRF (3.7) it fits and
+    its weights) and of the normal modes of steps 1-5.  Its std is propagated the way every
+    other entry of ``nm.std`` is (3.4): finite differences of the refit itself along the
+    identified parameters ``[theta; C]`` and their covariance in block form (3.56)-(3.59),
+    by :func:`~sdctrl.identification._normal_statistics.with_std` -- not the linearised
+    least-squares covariance of the refit, which would treat the identified FRF's 400 lines
+    as independent measurements (they are a smooth model of a few hundred noisy lines whose
+    noise the statistics already carry).  The normal modes of steps 1-5 (``cphi``, ``Omega``,
+    ``Gamma``, the other rows of ``phib``) are held at their values: their uncertainty is in
+    their own std, and the refitted rows hardly depend on them (the rows are refitted whatever
+    step 5 gave).  ``phib``'s other rows and every other entry keep the std of steps 1-5.
+
+    Parameters
+    ----------
+    nm : NormalModeModel
+        The normal modes of steps 1-5, with their std (3.4) or None.
+    cm : ComplexModeModel
+        The identified model (its ``statistics``).
+    fit : _Refit
+        The refit of step 6.
+
+    Returns
+    -------
+    dict or None
+        ``nm.std`` with ``phib``'s rows ``fit.rows`` replaced.
+    """
+    if nm.std is None or cm.statistics is None:
+        return nm.std
+    ref = nm.replace(phib=fit.phib(cm), std=None)
+    sd = with_std(ref, cm, lambda c: ref.replace(phib=fit.phib(c))).std
+    phib = np.array(nm.std["phib"])
+    phib[fit.rows] = sd["phib"][fit.rows]
+    return {**nm.std, "phib": phib}
 
 
 def _rows(nm, poles) -> np.ndarray:
