@@ -152,6 +152,32 @@ class _Refit:
     sel: np.ndarray
     free: np.ndarray
     rows: np.ndarray
+    #: frequencies (rad/s, imaginary) and weights ``1/|H|`` (nf, ns, na) held fixed, or None:
+    #: from the identified model fitted
+    grid: np.ndarray | None = None
+    weight: np.ndarray | None = None
+
+    def held(self, cm) -> _Refit:
+        """This refit with the grid and weights of ``cm`` held (:func:`_refit_std`)."""
+        s = self._grid(cm, np.asarray(cm.poles)[self.sel])
+        return replace(self, grid=s, weight=self._weight(cm, s))
+
+    def _grid(self, cm, lam):
+        if self.grid is not None:
+            return self.grid
+        lo, hi = 2 * np.pi * np.asarray(cm.band, float)
+        w = np.concatenate([np.linspace(lo, hi, GRID_LINES),
+                            (lam.imag[:, None] - lam.real[:, None] * POLE_OFFSETS).ravel()])
+        return 1j * np.unique(w[(w >= lo) & (w <= hi)])
+
+    def _weight(self, cm, s):
+        if self.weight is not None:
+            return self.weight
+        zero = np.zeros((cm.ns, cm.na))
+        mod = np.abs(frf_array(np.asarray(cm.poles), np.asarray(cm.residues),
+                               zero if cm.E is None else np.asarray(cm.E), cm.F, s))
+        return (1.0 / np.maximum(mod, 1e-12 * mod.max()) if mod.max() > 0
+                else np.ones_like(mod))
 
     def factors(self, lam):
         """``X``, ``Y`` of the normal modes at the poles ``lam`` (2.9)."""
@@ -164,22 +190,15 @@ class _Refit:
         nm, free, rows = self.nm, self.free, self.rows
         lam, R = np.asarray(cm.poles)[self.sel], np.asarray(cm.residues)[self.sel]
         X, Y = self.factors(lam)                             # R_nm,j = X_j (Y_j^T phib)
-        lo, hi = 2 * np.pi * np.asarray(cm.band, float)
-        w = np.concatenate([np.linspace(lo, hi, GRID_LINES),
-                            (lam.imag[:, None] - lam.real[:, None] * POLE_OFFSETS).ravel()])
-        s = 1j * np.unique(w[(w >= lo) & (w <= hi)])
+        s = self._grid(cm, lam)
         zero = np.zeros((cm.ns, cm.na))
-        H = frf_array(np.asarray(cm.poles), np.asarray(cm.residues),
-                      zero if cm.E is None else np.asarray(cm.E), cm.F, s)
         target = frf_array(lam[free], R[free], zero, None, s)
         g = 1.0 / (s[:, None] - lam[free][None, :])
         gc = 1.0 / (s[:, None] - lam[free].conj()[None, :])
         Xg, Xc = X[None, :, free] * g[:, None, :], X[None, :, free].conj() * gc[:, None, :]
         Yf = Y[:, free]
         G = Xg @ Yf[rows].T + Xc @ Yf[rows].conj().T                 # (nf, ns, rows)
-        mod = np.abs(H)
-        weight = (1.0 / np.maximum(mod, 1e-12 * mod.max()) if mod.max() > 0
-                  else np.ones_like(mod))
+        weight = self._weight(cm, s)
         Yb = Yf.T @ nm.phib
         target = target - (Xg @ Yb + Xc @ Yb.conj())                  # what step 5 leaves
         phib = np.array(nm.phib)
@@ -203,9 +222,12 @@ def _refit_std(nm, cm, fit: _Refit):
     least-squares covariance of the refit, which would treat the identified FRF's 400 lines
     as independent measurements (they are a smooth model of a few hundred noisy lines whose
     noise the statistics already carry).  The normal modes of steps 1-5 (``cphi``, ``Omega``,
-    ``Gamma``, the other rows of ``phib``) are held at their values: their uncertainty is in
-    their own std, and the refitted rows hardly depend on them (the rows are refitted whatever
-    step 5 gave).  ``phib``'s other rows and every other entry keep the std of steps 1-5.
+    ``Gamma``, the other rows of ``phib``), the frequency grid and the weights ``1/|H|`` are
+    held at their values (Gauss-Newton: the weights normalise the cost (3.12), their change
+    acts through the fit's residual only, second order; differentiating them too
+    overpredicted the std of the largest entries 1.7-1.8x on the truss at 1%).  Calibration:
+    tests/test_statistics_refit.py.  ``phib``'s other rows and every other entry keep the
+    std of steps 1-5.
 
     Parameters
     ----------
@@ -223,6 +245,7 @@ def _refit_std(nm, cm, fit: _Refit):
     """
     if nm.std is None or cm.statistics is None:
         return nm.std
+    fit = fit.held(cm)
     ref = nm.replace(phib=fit.phib(cm), std=None)
     sd = with_std(ref, cm, lambda c: ref.replace(phib=fit.phib(c))).std
     phib = np.array(nm.std["phib"])
