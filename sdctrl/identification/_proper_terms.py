@@ -96,8 +96,9 @@ def fitted_to_frf(cm, nm, sel, improper):
 
     ``nm.std`` of the refitted rows is that of the refitted values (:func:`_refit_std`):
     the identification's statistics (3.56)-(3.59) propagated through the refit to first
-    order, exactly as :func:`~sdctrl.identification._normal_statistics.with_std` propagates
-    them through steps 1-5 (3.4); the other entries of ``nm.std`` are those of steps 1-5.
+    order (its grid and weights held), as
+    :func:`~sdctrl.identification._normal_statistics.with_std` propagates them through
+    steps 1-5 (3.4); the other entries of ``nm.std`` are those of steps 1-5.
 
     Parameters
     ----------
