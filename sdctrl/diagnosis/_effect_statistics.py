@@ -137,8 +137,7 @@ class Evaluator:
         for q in built:
             m = apply_effect(m, q, self.placed)
         H = self.placed0.fast_response(m)
-        lag = (np.exp(-1j * self.placed0.omega * m.tau) if isinstance(m, DelayedModel)
-               else None)
+        lag = self.placed0.lag(m)
         self.corrected = m.model if isinstance(m, DelayedModel) else m
         self._last = (x.copy(), (H, built, lag))
         return H, built, lag

@@ -8,8 +8,9 @@ sizes of all accepted effects are therefore fitted again together (from the seco
 lone effect keeps its own fit -- a free mode's, on the lines around it, is not pulled by the
 rest of the band) on the complex logLS residual (3.12) ``r(x) = Log(H(x) / H_d)`` of every
 line and channel, ``H(x)`` the model with every effect applied in turn at the coordinates
-``x`` (their sizes, and for an extra mode its frequency, damping and modal vectors; residual
-terms, linear and many, keep their values).
+``x`` (their sizes, and for an extra mode its frequency, damping and modal vectors).  Residual
+terms, linear and many, are not coordinates: each is refitted per channel given the others
+before and after (:func:`_residual_terms_refitted`).
 
 The fit is Levenberg-Marquardt on the normal equations: ``J^T J`` is as small as the number
 of coordinates while ``J`` has a row per line, channel and real/imaginary part; each
@@ -128,7 +129,7 @@ def refit(model, props, placed, noise: float = 0.0):
     coords = [[] if p["action"] == "residual" else coordinates(p) for p in first]
     x0 = np.array([c[1] for cs in coords for c in cs], float)
     if x0.size == 0:
-        return _kept(model, props, first, placed, J0)
+        return _kept(model, (props, base), first, placed, J0)
     evaluate = Evaluator(model, first, coords, placed, placed)
     lb, ub = _bounds(props, coords, placed.omega)
     x0 = np.clip(x0, lb, ub)
@@ -145,7 +146,7 @@ def refit(model, props, placed, noise: float = 0.0):
     except np.linalg.LinAlgError:
         return props, base
     new = _residual_terms_refitted(model, evaluate.built(x), placed)
-    return _kept(model, props, new, placed, J0)
+    return _kept(model, (props, base), new, placed, J0)
 
 
 def pruned(model, props, corrected, placed, noise):
@@ -183,7 +184,7 @@ def pruned(model, props, corrected, placed, noise):
     k = 0
     while k < len(props) - 1:
         p = props[k]
-        if not (p["action"] in ("mode", "residual") and len(props) > 1):
+        if p["action"] not in ("mode", "residual"):
             k += 1
             continue
         rest, without = refit(model, props[:k] + props[k + 1:], placed, noise)
@@ -196,12 +197,12 @@ def pruned(model, props, corrected, placed, noise):
     return props, corrected, dropped
 
 
-def _kept(model, props, new, placed, J0):
-    """``(new, model with them)`` when they lower the cost below ``J0``, else the input
-    ``(props, model with them)``."""
+def _kept(model, given, new, placed, J0):
+    """``(new, model with them)`` when they lower the cost below ``J0``, else ``given``: the
+    input ``(props, model with them)``."""
     corrected = applied(model, new, placed)
     if not cost(placed.response(corrected), placed.Hd) < J0:
-        return props, applied(model, props, placed)
+        return given
     for q in new:
         q["parameters"] = _parameters(q)
         if q["action"] == "mode":                 # a free mode is located by its frequency
@@ -215,16 +216,14 @@ def _residual_terms_refitted(model, props, placed) -> list:
     channel, whose entry of the term is its own coordinate (the entries the term has: its
     actuator's column, or all), or on the term's one factor along the FE's residual
     flexibility; a step is halved until it lowers the cost (:func:`_term_steps`)."""
-    from sdctrl.diagnosis._apply import DelayedModel
-
     out = [dict(p) for p in props]
     for i, p in enumerate(props):
         if p["action"] != "residual":
             continue
         m = applied(model, out, placed)
         H = placed.fast_response(m)
-        lag = (np.exp(-1j * placed.omega * m.tau) if isinstance(m, DelayedModel)
-               else np.ones(placed.omega.size))
+        lag = placed.lag(m)
+        lag = np.ones(placed.omega.size) if lag is None else lag
         phi = (lag * (1.0 if p["payload"]["field"] == "E" else 1.0 / placed.s**2))
         X = np.asarray(p["payload"]["X"], float)
         scale = p["parameters"].get("scale")

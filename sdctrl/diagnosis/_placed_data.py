@@ -101,10 +101,26 @@ class Placed:
         ndarray, shape (nf, ns, na)
         """
         if isinstance(model, DelayedModel):
-            lag = np.exp(-1j * self.omega * model.tau)[:, None, None]
-            return self.fast_response(model.model) * lag
+            return self.fast_response(model.model) * self.lag(model)[:, None, None]
         H = _coupled_response(model, self)
         return self.response(model) if H is None else H
+
+    def lag(self, model) -> np.ndarray | None:
+        """The delay factor ``exp(-j w tau)`` per line of a :class:`DelayedModel`; None for an
+        undelayed model.
+
+        Parameters
+        ----------
+        model : model
+            Any model.
+
+        Returns
+        -------
+        ndarray, shape (nf,), complex, or None
+        """
+        if not isinstance(model, DelayedModel):
+            return None
+        return np.exp(-1j * self.omega * model.tau)
 
     def static_part(self, model) -> np.ndarray:
         """``E + F / s^2`` of a normal-mode model on the data channels, shape (nf, ns, na).
