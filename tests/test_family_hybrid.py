@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from family_struts import figures
+from family_struts import figures, pick_bar, with_strut
 from sdctrl.hybrids._auto import TIE
 
 #: measured figures per (member, noise), the default hybrid (``residual="auto"``): logLS of the
@@ -72,10 +72,20 @@ CHOSEN_AT = {}
 _ALL = {(n, x) for n in CHOSEN for x in (0.0, 0.01)}
 #: where each (member, noise) stands against the issue's targets (asserted where met; the
 #: gaps, locked above, are the open part of issue 22): the cluster's untested
-#: shaker 0.08x/0.11x (the test without that shaker identifies two of the four blade modes;
-#: the other two come from the FE, and at the sensors of the other blades the response is
-#: a near-cancellation of the four); at 1% the cluster's D-strut 7.0x (0.57x while a blade
-#: mode was left residual by the normal-mode step; its broken strut went 0.58x -> 7.1x)
+#: shaker 0.08x (0% and 1%) and, at 1%, its D-strut 7.0x (0.57x while a blade mode was left
+#: residual by the normal-mode step; its broken strut went 0.58x -> 7.1x).  What carries
+#: each gap is measured and asserted by the two tests at the end of this module:
+#: - the D-strut at 1% is the test's own floor: 88% of its logLS lies on the 4 cross-axis
+#:   hub channels (H1/2/4/5.z from H3.y, below the cluster) that the identified model itself
+#:   misses at 1% noise (0.305 there; 0.0042 elsewhere; 9e-4 noise-free); on the other 40
+#:   channels the D-strut is 49x.  The two blade modes whose mass scale is not measured do
+#:   not carry it (FE-expansion scaling: 7.03x -> 5.6x, kept out);
+#: - the untested shaker: the remaining shaker H3.y is a near node of the blade modes
+#:   (participation 4e-4 against 1.11 at T1.y), the test without T1.y resolves two
+#:   composite blade modes (MAC 0.73/0.89), and the near-cancellation at the other blades
+#:   is carried by the cluster's damping coupling (FE modes with the test's frequencies:
+#:   14.6x with the FE's coupled damping, 0.55x with its diagonal), which that test cannot
+#:   measure and the hybrid's appended FE modes do not carry (mean damping, 5.1.1)
 TARGETS = {
     "dstrut": _ALL - {("cluster", 0.01)},
     "broken": _ALL,
@@ -222,3 +232,127 @@ def test_identified_hybrid_locked_per_member(name):
     # own residual terms ("tested"): all but the cluster at 1%, stated above
     if CHOSEN_AT.get((name, 0.01, "all"), CHOSEN[name]) == "tested":
         assert MEASURED[(name, 0.01)][0] <= got.nominal
+
+
+def _log_err(H, ref):
+    """Per line and channel ``|ln|H| - ln|ref||^2`` (the terms of logLS, 3.12)."""
+    return np.abs(np.log(np.abs(H)) - np.log(np.abs(ref))) ** 2
+
+
+def test_cluster_dstrut_gap_is_the_tests_own_floor():
+    """Why the cluster's D-strut at 1% stays below 12x (MEASURED 7.0x; 599x noise-free).
+
+    Measured: 88% of the hybrid's D-strut logLS lies on 4 of the 44 channels, the
+    cross-axis hub channels H1.z, H2.z, H4.z, H5.z driven by H3.y, mostly below the cluster
+    (6-9.5 Hz), where the true response (2e-12 m/N at 7 Hz on H5.z) is a cancellation of
+    out-of-band hub-mode terms of 1e-9 to 7e-9 (1 part in 3000).  The identified model's
+    own error there is 0.305 at 1% noise (8e-5 overall noise-free), the hybrid's D-strut
+    0.291 (it keeps the test at the tested I/O, ``"tested"``); on every other channel the
+    D-strut is 49x better than the wrong FE.  Not the carrier: the mass scale of the two
+    blade modes whose collocated residues are within their noise (scaling them by the FE
+    expansion, unit FE modal mass, moved the D-strut 7.03x -> 5.6x, the nominal 0.030 ->
+    0.038), nor the expansion of the close modes (the true shapes of the four blade modes
+    put in the hybrid with its identified Omega/Gamma: 0.71x, and a nominal of 0.30: the
+    identified Gamma couples the identified shapes).
+    """
+    st, nm, h, _ = _build("cluster", 0.01)
+    nm0 = _models("cluster", 0.0)[1]
+    true, wrong = st.fe(), st.wrong()
+    SH, SE = list(st.shakers), list(st.sensors)
+    freq = np.linspace(*st.band, 300)
+    bar = pick_bar(st, true)
+    s = wrong.strut(bar.a, bar.b)
+    kp, kv = -0.4 * bar.k_bar, bar.kv
+    ref = with_strut(true, s, kp, kv).frf(freq, SH, SE, "acceleration").H
+    e_fe = _log_err(with_strut(wrong, s, kp, kv).frf(freq, SH, SE, "acceleration").H, ref)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        e_h = _log_err(h.with_feedback(s, s.T, kp=kp, kv=kv).frf(freq, "acceleration").H, ref)
+    nominal = true.frf(freq, SH, SE, "acceleration").H
+    e_nm = _log_err(nm.frf(freq, "acceleration").H, nominal)
+    e_nm0 = _log_err(nm0.frf(freq, "acceleration").H, nominal)
+    cross = np.zeros((len(SE), len(SH)), bool)
+    cross[[SE.index(f"H{i}.z") for i in (1, 2, 4, 5)], SH.index("H3.y")] = True
+    print(f"\nD-strut ratio {e_fe.mean() / e_h.mean():.2f}, without the cross-axis channels "
+          f"{e_fe[:, ~cross].mean() / e_h[:, ~cross].mean():.2f}; their share "
+          f"{e_h[:, cross].sum() / e_h.sum():.3f}; nm there {e_nm[:, cross].mean():.4f} (1%), "
+          f"{e_nm0[:, cross].mean():.2e} (0%), elsewhere {e_nm[:, ~cross].mean():.4f}")
+    assert e_fe.mean() / e_h.mean() < 12                      # the gap, locked above
+    assert e_fe[:, ~cross].mean() / e_h[:, ~cross].mean() >= max(12, 49.4 / 1.5)
+    assert e_h[:, cross].sum() >= 0.8 * e_h.sum()             # 0.88
+    below = freq < 9.5                                        # below the cluster
+    assert e_h[below][:, cross].sum() >= 0.8 * e_h[:, cross].sum()
+    # the test's own model misses those channels at 1% (0.305) and not noise-free
+    assert e_nm[:, cross].mean() >= 0.2 and e_nm0[:, cross].mean() <= 0.01
+    assert e_nm[:, ~cross].mean() <= 0.01                     # 0.0042 elsewhere
+    # the hybrid's D-strut there is no worse than the test's own nominal model (0.291)
+    assert e_h[:, cross].mean() <= 1.05 * e_nm[:, cross].mean()
+
+
+def _fe_with_test_frequencies(st, model, kappa, coupled=True, n=60):
+    """The wrong FE's ``n`` modes (modal model, no static correction) with the frequencies
+    of its modes paired to a measured mode at MAC >= 0.99 taken from the test and the others
+    scaled by ``kappa``; damping the FE's ``phi^T C phi`` (times the frequency scale), whole
+    or its diagonal."""
+    wrong = st.wrong()
+    f, phi = wrong.modes(n)
+    scale = np.full(n, kappa)
+    pr = model.construction.pairing
+    good = pr.mac >= 0.99
+    scale[pr.fe_mode[good]] = pr.test_hz[good] / f[pr.fe_mode[good]]
+    G = (phi.T @ (wrong.C @ phi)) * np.sqrt(np.outer(scale, scale))
+    G = G if coupled else np.diag(np.diag(G))
+    return sd.NormalModeModel(np.diag((2 * np.pi * f * scale) ** 2), G,
+                              wrong.point(list(st.sensors)).T @ phi,
+                              phi.T @ wrong.point([st.shakers[-1]]))
+
+
+def test_cluster_shaker_gap_what_carries_it():
+    """Why the cluster's untested shaker (T1.y) stays below 12x (MEASURED 0.08x).
+
+    Measured, noise-free: the remaining shaker H3.y (hub centre) is a near node of the four
+    blade modes (participation 4e-4 against 1.11 at T1.y), so the test without T1.y
+    resolves two of them, composites of the true ones (MAC 0.73 and 0.89 with their FE
+    pairs, 1.0 with every shaker).  63% of the hybrid's error lies at 11-30 Hz, above the
+    cluster, where at the other blades' sensors the four modes' tails must cancel (at 20
+    Hz on T2.y the hybrid's cluster gives 1.8e-5 m/N, the truth -2.7e-7).  The
+    expansion is not the carrier (the true shapes of the four blade modes put in the
+    hybrid: 0.51x; Lowdin-orthonormal cluster shapes in the FE's mass: 0.72x), nor the
+    two modes' mass scale (unit FE modal mass: 0.11x).  The carrier is the cluster's
+    damping coupling (the dashpot between two blade tips), which a test that does not
+    excite the blades cannot measure: the wrong FE's modes with the test's frequencies
+    where the test has the mode (the local mode) and ``kappa`` elsewhere predict the
+    shaker 14.6x better than the wrong FE with the FE's whole damping matrix, 0.55x with
+    its diagonal (the hybrid's appended modes carry the mean damping, 5.1.1).  The same
+    steps inside the hybrid (the two composite modes absorbed, the FE modes of the cluster
+    at kappa with the FE's projected damping, every appended mode likewise) reached 9.7x
+    (at 1%, where that test's four blade modes are the ones whose mass scale is not
+    measured, absorbing them likewise: 8.3x): an open route, short of 12x and not taken
+    (no rule found that tells composite modes from measured ones noise-free, and it
+    changes every member's appended modes).
+    """
+    st, nm, h, h_minus = _build("cluster", 0.0)
+    true, wrong = st.fe(), st.wrong()
+    SH, SE = list(st.shakers), list(st.sensors)
+    f, phi = true.modes(5)
+    part = np.abs(true.point(SH).T @ phi[:, :4])              # blade modes, per shaker
+    assert part[0].max() <= 1e-3 * part[1].max()              # 4e-4 against 1.11
+    pr, pr_all = h_minus.construction.pairing, h.construction.pairing
+    blade = pr.test_hz < 11
+    assert blade.sum() == 2 and (pr_all.test_hz < 11).sum() == 4
+    assert np.all(pr.mac[blade] < 0.95) and np.all(pr_all.mac >= 0.999)
+    freq = np.linspace(*st.band, 300)
+    u = SH[-1]
+    ref = true.frf(freq, [u], SE, "acceleration").H
+    e_fe = _log_err(wrong.frf(freq, [u], SE, "acceleration").H, ref).mean()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        e_h = _log_err(h_minus.with_io(b=[u]).frf(freq, "acceleration").H, ref)
+    above = (freq > 11) & (freq < 30)
+    assert e_h[above].sum() >= 0.5 * e_h.sum()                # 0.63
+    kappa = h_minus.construction.residual.kappa
+    ratios = [e_fe / _log_err(_fe_with_test_frequencies(st, h_minus, kappa, coupled).frf(
+        freq, "acceleration").H, ref).mean() for coupled in (True, False)]
+    print(f"\nshaker: hybrid {e_fe / e_h.mean():.3f}x; wrong FE with the test's frequencies "
+          f"and kappa {kappa:.4f}: coupled damping {ratios[0]:.2f}x, diagonal {ratios[1]:.2f}x")
+    assert ratios[0] >= 12 and ratios[1] < 1                 # 14.6x, 0.55x
