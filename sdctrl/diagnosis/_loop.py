@@ -54,6 +54,9 @@ MAX_STEPS = 50
 N_RUNNERS = 8
 #: candidates tried in turn in a step when a joint refit rejects the best
 N_TRIES = 3
+#: after an effect, the next scan is skipped when even a noise level this share of the
+#: estimated one leaves less error than an effect must remove (:func:`_exhausted`)
+NOISE_SHARE = 0.5
 
 
 def _check(model, frf, fe, executor, max_effects, noise, reach):
@@ -198,7 +201,11 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     hypotheses of the step (every family's locations, lines or channels together), ``M
     P(chi^2_k > T)``, must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the
     error above the noise level and 0.1% of the initial one (a second effect may be
-    much smaller than the first).  A free extra mode stays a mode: when the joint refit of
+    much smaller than the first).  After an effect, the next scan is not run when no
+    effect could pass (b) any more: an effect cannot remove the measurement noise, so when
+    the error left less half the noise level is below the share (b) asks, the search stops
+    (said in :attr:`Diagnosis.steps`; the result is the one the scan would give).  A free
+    extra mode stays a mode: when the joint refit of
     the effects moves it onto the edge of its region (frequency 0.8-1.2 times the band's
     ends, damping ratio 0.5) it is a broadband trend, and the step's next significant
     candidate is tried instead (said in :attr:`Diagnosis.steps` and the report).  An extra
@@ -315,6 +322,27 @@ def _ranked(props, J, sigma2, N, freq):
     return sorted(props, key=lambda p: -p["score"])
 
 
+def _exhausted(J, J0, sigma2) -> bool:
+    """No effect can pass the share test of :func:`_accepted` any more.
+
+    An effect's cost ``J_e`` includes the measurement noise, which no smooth change of the
+    model removes (a ``k``-parameter effect fits a share ``k / N`` of it): ``J_e >=
+    sigma_t^2``, the true noise level, and the most an effect can remove is ``J -
+    sigma_t^2``.  The estimate ``sigma^2`` (second differences, :func:`noise_level`) is
+    trusted within a factor ``1 / NOISE_SHARE``: when ``J - NOISE_SHARE sigma^2`` is below
+    the least share an effect must remove (``MIN_SHARE`` of the initial error above the
+    noise), the scan could not accept anything and is not run.  With ``NOISE_SHARE = 0``
+    this is the plain bound ``J_e >= 0``."""
+    return bool(J - NOISE_SHARE * sigma2 < MIN_SHARE * max(J0 - sigma2, 0.0))
+
+
+def _skip_reason(J, J0, sigma2) -> str:
+    """Why the scan after the last effect was not run (:func:`_exhausted`)."""
+    return (f"not scanned: the error left ({J:.3g}) less {NOISE_SHARE:g} x the noise level "
+            f"({sigma2:.3g}) is below what an effect must remove, {100 * MIN_SHARE:g}% of "
+            f"the initial error ({J0:.3g}) above the noise")
+
+
 def _accepted(best, J, J0, sigma2) -> bool:
     """Significant (false alarm below ALPHA) and a real share of the error above noise."""
     gain = J - best["cost"]
@@ -380,6 +408,10 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
     current, accepted, errors, steps, times = model, [], [], [], []
     for _step_ in range(min(int(max_effects), MAX_STEPS)):
         if J <= ROUNDOFF:
+            break
+        if accepted and _exhausted(J, J0, sigma2):
+            steps.append({"accepted": False, "rejected": [], "dropped": [], "candidates": [],
+                          "skipped": _skip_reason(J, J0, sigma2)})
             break
         ts = time.perf_counter()
         props = _ranked(_step(current, placed0, fe, cand, executor, progress,

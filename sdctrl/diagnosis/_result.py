@@ -209,7 +209,8 @@ class Diagnosis:
         ``"rejected"`` (``kind``, ``location``, ``reason`` of the significant candidates
         passed over because their joint refit moved a free mode onto its region's edge),
         ``"dropped"`` (earlier effects, a free mode or a residual term, that the step's
-        effect made redundant, as accepted).
+        effect made redundant, as accepted) and, for a scan not run because no effect
+        could pass the share test any more, ``"skipped"`` (why, with the figures).
     info : dict
         Counts of candidates, timings, options.
     built : str or None
@@ -361,6 +362,9 @@ class Diagnosis:
         for i, st in enumerate(self.steps):
             verdict = "added" if st.get("accepted") else "none added"
             lines += [f"## Step {i + 1}: candidates ({verdict})", ""]
+            if st.get("skipped"):
+                lines += [f"Candidates {st['skipped']}.", ""]
+                continue
             rows = [(c["kind"], format_location(c["location"]),
                      format_parameters(c["parameters"]), f"{c['cost']:.4g}", c["k"], c["m"],
                      f"{c['score']:.4g}") for c in st.get("candidates", [])]
