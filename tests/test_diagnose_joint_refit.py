@@ -135,7 +135,7 @@ def test_refit_keeps_a_free_mode_in_its_region_and_passes_it_over():
                     0.0, 7, FREQ.size, "mode",
                     {"omega": w, "zeta": z, "c": np.ones(4), "b": np.ones(2)})
     lo, hi, zlo, zhi = free_mode_region(placed.omega)
-    props, _ = refit(base(), [delay, mode], placed)
+    props = refit(base(), [delay, mode], placed).props
     q = props[1]["payload"]
     assert lo <= q["omega"] <= hi and zlo <= q["zeta"] <= zhi       # bounded refit
     assert leaves_region(props[1], placed.omega)                    # onto the edge

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["complex_blocks", "correction_filter", "mass_correction", "modal_states",
-           "second_order", "ss_frf"]
+__all__ = ["complex_blocks", "correction_filter", "default_omega_f", "mass_correction",
+           "modal_states", "pole_moduli", "second_order", "ss_frf"]
 
 
 def second_order(Omega, Gamma, phib, cphi, k: int = 0):
@@ -287,3 +287,28 @@ def ss_frf(A, B, C, D, omega) -> np.ndarray:
                              "singular at some freq): move the grid or damp the pole") from None
         out[i:i + chunk] = CQ @ X + D
     return out
+
+
+def pole_moduli(model) -> np.ndarray:
+    """Natural frequencies (rad/s) of a normal-mode model's modes and residual dynamics."""
+    w = np.sqrt(np.clip(np.diag(model.Omega), 0, None))
+    if model.residual is not None:
+        w = np.concatenate([w, np.abs(model.residual.poles)])
+    return w
+
+
+def default_omega_f(model) -> float:
+    """Default corner (rad/s) of the residual-mass correction modes: a decade below the band.
+
+    ``model.omega_f`` when set; else a tenth of the lower edge of the identified band
+    (``properness.band``) when it is positive, else a tenth of the lowest positive natural
+    frequency of the modes and residual dynamics (1 rad/s for a model with none).
+    """
+    if model.omega_f is not None:
+        return model.omega_f
+    band = getattr(model.properness, "band", None)
+    if band is not None and band[0] > 0:
+        return 0.1 * 2 * np.pi * float(band[0])
+    w = pole_moduli(model)
+    w = w[w > 0]
+    return 0.1 * float(w.min()) if w.size else 1.0

@@ -204,7 +204,7 @@ def _fixed_part(model, out_idx, band, psd):
 def _reduced(model):
     """The model's reduced part, without its (N, n) shapes: what a candidate changes."""
     from sdctrl.modal._normal_model import NormalModeModel
-    from sdctrl.modal._normal_realisation import default_omega_f
+    from sdctrl._lib.statespace import default_omega_f
 
     return NormalModeModel(model.Omega, model.Gamma, model.cphi, model.phib, E=model.E,
                            sensors=model.sensors, actuators=model.actuators,

@@ -30,6 +30,8 @@ there, and the diagnosis tries its next candidate.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from sdctrl.diagnosis._apply import apply_effect
@@ -37,7 +39,7 @@ from sdctrl.diagnosis._effect_statistics import Evaluator, coordinates, stacked_
 from sdctrl.diagnosis._global_effects import free_mode_region, leaves_region
 from sdctrl.diagnosis._residual_map import ALPHA, complex_residual, cost, false_alarm, log_ratio
 
-__all__ = ["applied", "pruned", "refit"]
+__all__ = ["Corrected", "applied", "corrected", "pruned", "refit"]
 
 #: function evaluations of the joint refit (the Jacobian's not counted)
 MAX_NFEV = 30
@@ -45,6 +47,51 @@ MAX_NFEV = 30
 RTOL = 1e-8
 #: ... or by less than this share of one noise unit ``noise / 2`` (module notes)
 NOISE_SHARE = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class Corrected:
+    """Effects, the model with them applied, and its exact response and cost on the data
+    (computed once, read by the refit, the pruning and the diagnosis's loop).
+
+    Parameters
+    ----------
+    props : list of dict
+        The effects (proposals).
+    model : model
+        The diagnosis's input model with them applied.
+    H : ndarray, shape (nf, ns, na)
+        Its response on the data lines and channels (:meth:`Placed.response`).
+    J : float
+        Its complex logLS cost (3.12).
+    """
+
+    props: list
+    model: object
+    H: np.ndarray
+    J: float
+
+
+def corrected(model, props, placed) -> Corrected:
+    """``model`` with the effects ``props`` applied (:func:`applied`), with its response and
+    cost on ``placed``.
+
+    Parameters
+    ----------
+    model : model
+        The diagnosis's input model.
+    props : list of dict
+        Effects.
+    placed : Placed
+        The data.
+
+    Returns
+    -------
+    Corrected
+    """
+    m = applied(model, props, placed)
+    H = placed.response(m)
+    return Corrected(props, m, H, cost(H, placed.Hd))
 
 
 def applied(model, props, placed):
@@ -117,19 +164,16 @@ def refit(model, props, placed, noise: float = 0.0):
 
     Returns
     -------
-    props : list of dict
-        New proposals (copies) with refitted payloads, parameters and cost; the input ones
-        when the refit does not lower the cost.
-    corrected : model
-        ``model`` with them applied.
+    Corrected
+        New proposals (copies) with refitted payloads, parameters and cost -- the input ones
+        when the refit does not lower the cost -- and ``model`` with them applied.
     """
-    base = applied(model, props, placed)
-    J0 = cost(placed.response(base), placed.Hd)
+    base = corrected(model, props, placed)
     first = _residual_terms_refitted(model, props, placed)
     coords = [[] if p["action"] == "residual" else coordinates(p) for p in first]
     x0 = np.array([c[1] for cs in coords for c in cs], float)
     if x0.size == 0:
-        return _kept(model, (props, base), first, placed, J0)
+        return _kept(model, base, first, placed)
     evaluate = Evaluator(model, first, coords, placed, placed)
     lb, ub = _bounds(props, coords, placed.omega)
     x0 = np.clip(x0, lb, ub)
@@ -144,12 +188,12 @@ def refit(model, props, placed, noise: float = 0.0):
             NOISE_SHARE * noise / 2,
             stop=lambda x: any(leaves_region(q, placed.omega) for q in evaluate.built(x)))
     except np.linalg.LinAlgError:
-        return props, base
+        return base
     new = _residual_terms_refitted(model, evaluate.built(x), placed)
-    return _kept(model, (props, base), new, placed, J0)
+    return _kept(model, base, new, placed)
 
 
-def pruned(model, props, corrected, placed, noise):
+def pruned(model, fit, placed, noise):
     """Generic effects that the later ones made redundant, taken out.
 
     A free extra mode or a residual term (the effects that can stand for anything) accepted
@@ -163,10 +207,8 @@ def pruned(model, props, corrected, placed, noise):
     ----------
     model : model
         The diagnosis's input model.
-    props : list of dict
-        Accepted proposals, jointly refitted.
-    corrected : model
-        ``model`` with them applied.
+    fit : Corrected
+        Accepted proposals, jointly refitted, and ``model`` with them (:func:`refit`).
     placed : Placed
         The data.
     noise : float
@@ -174,40 +216,37 @@ def pruned(model, props, corrected, placed, noise):
 
     Returns
     -------
-    props : list of dict
-    corrected : model
+    fit : Corrected
     dropped : list of int
-        Indices (in the input ``props``) of the effects taken out.
+        Indices (in ``fit.props``) of the effects taken out.
     """
-    dropped, index = [], list(range(len(props)))
-    J = cost(placed.response(corrected), placed.Hd)
+    dropped, index = [], list(range(len(fit.props)))
     k = 0
-    while k < len(props) - 1:
-        p = props[k]
+    while k < len(fit.props) - 1:
+        p = fit.props[k]
         if p["action"] not in ("mode", "residual"):
             k += 1
             continue
-        rest, without = refit(model, props[:k] + props[k + 1:], placed, noise)
-        Jw = cost(placed.response(without), placed.Hd)
-        if false_alarm(Jw, J, noise, placed.n_entries, p["k"], p["m"]) < ALPHA:
+        without = refit(model, fit.props[:k] + fit.props[k + 1:], placed, noise)
+        if false_alarm(without.J, fit.J, noise, placed.n_entries, p["k"], p["m"]) < ALPHA:
             k += 1
             continue
         dropped.append(index.pop(k))
-        props, corrected, J = rest, without, Jw
-    return props, corrected, dropped
+        fit = without
+    return fit, dropped
 
 
-def _kept(model, given, new, placed, J0):
-    """``(new, model with them)`` when they lower the cost below ``J0``, else ``given``: the
-    input ``(props, model with them)``."""
-    corrected = applied(model, new, placed)
-    if not cost(placed.response(corrected), placed.Hd) < J0:
-        return given
+def _kept(model, base, new, placed) -> Corrected:
+    """The effects ``new`` with ``model`` corrected by them when they lower the cost below
+    ``base``'s (the input effects, :class:`Corrected`), else ``base``."""
+    fit = corrected(model, new, placed)
+    if not fit.J < base.J:
+        return base
     for q in new:
         q["parameters"] = _parameters(q)
         if q["action"] == "mode":                 # a free mode is located by its frequency
             q["location"] = q["parameters"]["frequency"]
-    return new, corrected
+    return fit
 
 
 def _residual_terms_refitted(model, props, placed) -> list:

@@ -354,12 +354,15 @@ def _accepted(best, J, J0, sigma2) -> bool:
 class _Extension:
     """The effects after a step (None: nothing added), the corrected model, the candidates
     rejected because their joint refit left a free mode's region and the indices of the
-    earlier effects the new one made redundant (:func:`._joint_fit.pruned`)."""
+    earlier effects the new one made redundant (:func:`._joint_fit.pruned`); the corrected
+    model's response and cost when the joint refit computed them (else None)."""
 
     trial: list | None
     model: object
     rejected: list
     dropped: tuple = ()
+    H: np.ndarray | None = None
+    J: float | None = None
 
 
 def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
@@ -373,10 +376,10 @@ def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
             break
         if not accepted:       # a lone effect keeps its own fit (a free mode: on its window)
             return _Extension([best], apply_effect(current, best, placed0), rejected)
-        trial, new = refit(model, accepted + [best], placed0, errors[2])
-        if not any(leaves_region(q, placed0.omega) for q in trial):
-            trial, new, dropped = pruned(model, trial, new, placed0, errors[2])
-            return _Extension(trial, new, rejected, tuple(dropped))
+        fit = refit(model, accepted + [best], placed0, errors[2])
+        if not any(leaves_region(q, placed0.omega) for q in fit.props):
+            fit, dropped = pruned(model, fit, placed0, errors[2])
+            return _Extension(fit.props, fit.model, rejected, tuple(dropped), fit.H, fit.J)
         rejected.append({"kind": best["kind"], "location": best["location"],
                          "reason": "its joint refit moved a free mode onto the edge of its "
                                    "region (a broadband trend, not a mode)"})
@@ -424,8 +427,8 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
             times.append(time.perf_counter() - ts)
             break
         best, trial, new = ext.trial[-1], ext.trial, ext.model
-        H_new = placed0.response(new)
-        J_new = cost(H_new, placed0.Hd)
+        H_new = placed0.response(new) if ext.H is None else ext.H
+        J_new = cost(H_new, placed0.Hd) if ext.J is None else ext.J
         times.append(time.perf_counter() - ts)
         if not J_new < J:
             warnings.warn(f"diagnose: the corrected model does not reduce the error "

@@ -16,8 +16,10 @@ from scipy.linalg import block_diag
 from sdctrl._lib.signals import signal_names
 from sdctrl._lib.statespace import (
     correction_filter,
+    default_omega_f,
     mass_correction,
     modal_states,
+    pole_moduli,
     second_order,
 )
 from sdctrl._lib.validate import (
@@ -30,14 +32,6 @@ from sdctrl._lib.validate import (
 __all__ = ["default_omega_c", "default_omega_f", "to_statespace"]
 
 
-def _pole_moduli(model) -> np.ndarray:
-    """Natural frequencies (rad/s) of the modes and of the residual dynamics."""
-    w = np.sqrt(np.clip(np.diag(model.Omega), 0, None))
-    if model.residual is not None:
-        w = np.concatenate([w, np.abs(model.residual.poles)])
-    return w
-
-
 def default_omega_c(model) -> float:
     """Default correction-mode cut-off (2.20): ten times the highest modal frequency (rad/s).
 
@@ -45,25 +39,8 @@ def default_omega_c(model) -> float:
     """
     if model.omega_c is not None:
         return model.omega_c
-    w = _pole_moduli(model)
+    w = pole_moduli(model)
     return 10.0 * (max(float(w.max()), 1e-6) if w.size else 1.0)
-
-
-def default_omega_f(model) -> float:
-    """Default corner (rad/s) of the residual-mass correction modes: a decade below the band.
-
-    ``model.omega_f`` when set; else a tenth of the lower edge of the identified band
-    (``properness.band``) when it is positive, else a tenth of the lowest positive natural
-    frequency of the modes and residual dynamics (1 rad/s for a model with none).
-    """
-    if model.omega_f is not None:
-        return model.omega_f
-    band = getattr(model.properness, "band", None)
-    if band is not None and band[0] > 0:
-        return 0.1 * 2 * np.pi * float(band[0])
-    w = _pole_moduli(model)
-    w = w[w > 0]
-    return 0.1 * float(w.min()) if w.size else 1.0
 
 
 def to_statespace(model, quantity: str = "displacement", omega_c: float | None = None, *,

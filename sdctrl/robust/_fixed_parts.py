@@ -13,10 +13,9 @@ Internal module: the functions trust their inputs.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
+from sdctrl._lib.statespace import default_omega_f, mass_correction
 from sdctrl._lib.validate import readonly
 
 __all__ = ["append_block", "mass_block"]
@@ -30,13 +29,13 @@ def append_block(A, B, C, block):
     return A, np.vstack([B, Be]), np.hstack([C, Ce])
 
 
-@functools.lru_cache(maxsize=16)
 def mass_block(model):
     """The correction modes of the residual mass ``F`` (2.23) of ``model``, certain.
 
-    Taken from the model's own realisation once per model (models are immutable; the cache
-    holds a few, by identity), so that every perturbed model of an uncertain model appends
-    the same block without realising the model again.
+    The block ``model.to_statespace()`` (displacement) appends for ``F`` after its modes and
+    residual dynamics: :func:`sdctrl._lib.statespace.mass_correction` at the model's corner
+    :func:`sdctrl._lib.statespace.default_omega_f` (critically damped, a decade
+    below the band), with the same state names.
 
     Parameters
     ----------
@@ -46,20 +45,12 @@ def mass_block(model):
     Returns
     -------
     tuple or None
-        ``(A, B, C, state names)`` of the states ``model.to_statespace()`` (displacement)
-        appends for ``F`` after its modes and residual dynamics (``3 na`` states ``zr``,
-        ``dzr``, ``ddzr``: critically damped a decade below the band), read-only, or None
-        when the model has no ``F``.
+        ``(A, B, C, state names)`` of the ``3 na`` states ``zr``, ``dzr``, ``ddzr``, read-only,
+        or None when the model has no ``F``.
     """
     if getattr(model, "F", None) is None:
         return None
-    own = model.to_statespace()
-    res = getattr(model, "residual", None)
-    k = 2 * model.n + (len(res.realisation(model.sensors, model.actuators)[3])
-                       if res is not None and res.m else 0)
-    A, B, C = (np.asarray(X, float) for X in (own.A, own.B, own.C))
-    if np.any(A[:k, k:]) or np.any(A[k:, :k]):
-        raise RuntimeError("mass_block: the model's realisation does not end with a "
-                           "decoupled block of F's correction modes")
-    return (readonly(A[k:, k:].copy()), readonly(B[k:].copy()), readonly(C[:, k:].copy()),
-            tuple(own.state_labels[k:]))
+    A, B, C, _ = mass_correction(np.asarray(model.F, float), default_omega_f(model))
+    na = B.shape[1]
+    names = tuple(f"{x}{j}" for x in ("zr", "dzr", "ddzr") for j in range(na))
+    return readonly(A), readonly(B), readonly(C), names
