@@ -35,6 +35,7 @@ from sdctrl.diagnosis._residual_map import (
     cost,
     ebic_score,
     false_alarm,
+    noise_floor,
     noise_level,
 )
 from sdctrl.diagnosis._result import Diagnosis, Effect
@@ -55,8 +56,8 @@ N_RUNNERS = 8
 #: candidates tried in turn in a step when a joint refit rejects the best
 N_TRIES = 3
 #: after an effect, the next scan is skipped when even a noise level this share of the
-#: estimated one leaves less error than an effect must remove (:func:`_exhausted`)
-NOISE_SHARE = 0.5
+#: data's noise floor leaves less error than an effect must remove (:func:`_exhausted`)
+NOISE_SHARE = 0.9
 
 
 def _check(model, frf, fe, executor, max_effects, noise, reach):
@@ -203,7 +204,8 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     error above the noise level and 0.1% of the initial one (a second effect may be
     much smaller than the first).  After an effect, the next scan is not run when no
     effect could pass (b) any more: an effect cannot remove the measurement noise, so when
-    the error left less half the noise level is below the share (b) asks, the search stops
+    the error left less 0.9 x a low estimate of the noise (robust to correlated
+    neighbouring lines) is below the share (b) asks, the search stops
     (said in :attr:`Diagnosis.steps`; the result is the one the scan would give).  A free
     extra mode stays a mode: when the joint refit of
     the effects moves it onto the edge of its region (frequency 0.8-1.2 times the band's
@@ -322,24 +324,24 @@ def _ranked(props, J, sigma2, N, freq):
     return sorted(props, key=lambda p: -p["score"])
 
 
-def _exhausted(J, J0, sigma2) -> bool:
+def _exhausted(J, J0, sigma2, floor) -> bool:
     """No effect can pass the share test of :func:`_accepted` any more.
 
     An effect's cost ``J_e`` includes the measurement noise, which no smooth change of the
     model removes (a ``k``-parameter effect fits a share ``k / N`` of it): ``J_e >=
     sigma_t^2``, the true noise level, and the most an effect can remove is ``J -
-    sigma_t^2``.  The estimate ``sigma^2`` (second differences, :func:`noise_level`) is
-    trusted within a factor ``1 / NOISE_SHARE``: when ``J - NOISE_SHARE sigma^2`` is below
-    the least share an effect must remove (``MIN_SHARE`` of the initial error above the
-    noise), the scan could not accept anything and is not run.  With ``NOISE_SHARE = 0``
-    this is the plain bound ``J_e >= 0``."""
-    return bool(J - NOISE_SHARE * sigma2 < MIN_SHARE * max(J0 - sigma2, 0.0))
+    sigma_t^2``.  ``floor`` is a low estimate of ``sigma_t^2`` (:func:`noise_floor`: robust
+    to correlated neighbouring lines, three standard deviations below its estimate): when
+    ``J - NOISE_SHARE floor`` is below the least share an effect must remove (``MIN_SHARE``
+    of the initial error above the noise ``sigma2``), the scan could not accept anything
+    and is not run."""
+    return bool(J - NOISE_SHARE * floor < MIN_SHARE * max(J0 - sigma2, 0.0))
 
 
-def _skip_reason(J, J0, sigma2) -> str:
+def _skip_reason(J, J0, floor) -> str:
     """Why the scan after the last effect was not run (:func:`_exhausted`)."""
-    return (f"not scanned: the error left ({J:.3g}) less {NOISE_SHARE:g} x the noise level "
-            f"({sigma2:.3g}) is below what an effect must remove, {100 * MIN_SHARE:g}% of "
+    return (f"not scanned: the error left ({J:.3g}) less {NOISE_SHARE:g} x the noise floor "
+            f"({floor:.3g}) is below what an effect must remove, {100 * MIN_SHARE:g}% of "
             f"the initial error ({J0:.3g}) above the noise")
 
 
@@ -412,9 +414,11 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
     for _step_ in range(min(int(max_effects), MAX_STEPS)):
         if J <= ROUNDOFF:
             break
-        if accepted and _exhausted(J, J0, sigma2):
+        floor = (min(sigma2, noise_floor(complex_residual(H, placed0.Hd))) if accepted
+                 else 0.0)
+        if accepted and _exhausted(J, J0, sigma2, floor):
             steps.append({"accepted": False, "rejected": [], "dropped": [], "candidates": [],
-                          "skipped": _skip_reason(J, J0, sigma2)})
+                          "skipped": _skip_reason(J, J0, floor)})
             break
         ts = time.perf_counter()
         props = _ranked(_step(current, placed0, fe, cand, executor, progress,
