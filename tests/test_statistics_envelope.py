@@ -45,6 +45,13 @@ def _identify(frf, poles=None):
         return cm, sd.normal_modes(cm)
 
 
+def _realised(nm, f, quantity="displacement"):
+    """The model's own StateSpace response (nf, ns, na): what its uncertain model's nominal
+    plant is (``E``, ``F``'s correction modes and the residual dynamics included)."""
+    G = nm.to_statespace(quantity)
+    return np.moveaxis(G(2j * np.pi * f), 2, 0).reshape(f.size, nm.ns, nm.na)
+
+
 def _drawn_envelope(fig, n_lines):
     """``(|H| min, |H| max)`` of each panel's band, read back from the figure (dB)."""
     out = []
@@ -79,8 +86,9 @@ def test_envelope_from_the_data_holds_the_truth_at_the_stated_rate():
     assert nm0.n >= 3 and nm0.std is not None
     f = exact.freq
     inb = (f > ref.band[0]) & (f < ref.band[1])
-    # the truth as the uncertain model represents it (its residual mass F dropped)
-    truth = np.abs(nm0.replace(F=None).frf(f, exact.quantity).H[:, :, 0])   # (nf, ns)
+    # the truth as the uncertain model represents it: its own realisation (the residual mass
+    # F by its correction modes a decade below the band, 2.19-2.20)
+    truth = np.abs(_realised(nm0, f, exact.quantity)[:, :, 0])             # (nf, ns)
     rates = {0.95: [], 0.5: []}
     widths = []
     for k in range(N_DRAWS):
@@ -106,19 +114,24 @@ def test_envelope_from_the_data_holds_the_truth_at_the_stated_rate():
             if level == 0.95:
                 widths.append(np.median([np.median(hi[inb] / lo[inb]) for lo, hi in env]))
     r95, r50 = np.mean(rates[0.95]), np.mean(rates[0.5])
-    # measured 0.986 and 0.702 with the residual dynamics uncertain (issue 24; 0.980 / 0.679
+    # measured 0.999 and 0.925 (median width 6.5%) since the uncertain model keeps the
+    # identified residual mass F (certain, realised as the model's own StateSpace realises
+    # it) and the truth is that realisation: in accelerance F is the mass line under the
+    # modes, well determined by the data, and the envelope is judged on the whole response.
+    # Before, F was dropped from the model and the truth alike: 0.986 and 0.702, width 10.1%.
+    # Earlier: 0.986 and 0.702 with the residual dynamics uncertain (issue 24; 0.980 / 0.679
     # before normal_modes kept the improper parts of the residues).  History:
     # 0.86 / 0.54 with one free out-of-band pole per side; 0.57 / 0.27 once identification
     # added the significant out-of-band poles and the uncertain model held them certain (the
     # draws' residual dynamics moved outside the envelope).  The 95% rate is within 10 points
-    # of the stated one; the 50% envelope is conservative by 20 points: it is the hull of a
-    # box of 53 independent intervals (each at the level), wider than the FRF's own 50%
-    # band -- on the safe side for a robustness check, a gap stated here
+    # of the stated one; the 50% envelope is conservative by 42 points (20 before): it is the
+    # hull of a box of 53 independent intervals (each at the level), wider than the FRF's own
+    # 50% band -- on the safe side for a robustness check, a gap stated here
     print(f"\ncoverage 95%: {r95:.3f}, 50%: {r50:.3f}, width {np.median(widths):.4f}")
     assert 0.85 <= r95 <= 1.0, r95
-    assert 0.4 <= r50 <= 0.75, r50
-    # the envelope is not vacuous: a few percent wide at 1% noise (measured 10.1%; 2.4% with
-    # the residual dynamics certain)
+    assert 0.4 <= r50 <= 0.96, r50
+    # the envelope is not vacuous: a few percent wide at 1% noise (measured 6.5%; 10.1% with
+    # F dropped; 2.4% with the residual dynamics certain)
     assert 1.005 < np.median(widths) < 1.15, np.median(widths)
 
 
@@ -131,13 +144,15 @@ def test_uncertain_model_carries_the_residual_dynamics():
     exact = _subtest(sd.testbeds.structure("plate").frf(n=N_LINES, noise=0.01, seed=0))
     _, nm = _identify(exact)
     assert nm.residual is not None and nm.residual.m >= 1
+    assert nm.F is not None                 # kept: the nominal plant is the model's own
     um = sd.uncertain_from_data(nm, 0.95)
     f = exact.freq
     w = 2j * np.pi * f
-    want = nm.replace(F=None).frf(f).H                             # displacement
+    want = _realised(nm, f)                                          # displacement
     nominal = np.moveaxis(um.nominal(w), 2, 0)
     assert np.abs(nominal - want).max() < 1e-9 * np.abs(want).max()
-    assert um.nominal.nstates == 2 * nm.n + 2 * nm.residual.m      # one input: one state
+    n_F = 0 if nm.F is None else 3 * nm.na                         # F's correction modes
+    assert um.nominal.nstates == 2 * nm.n + 2 * nm.residual.m + n_F  # one input: one state
     assert "r0_0" in um.nominal.state_labels
     res = nm.residual
     assert res.pole_std is not None and np.all(np.isfinite(res.pole_std.real))
@@ -170,7 +185,7 @@ def test_uncertain_model_carries_the_residual_dynamics():
             R[j, k, 0] += step                                   # one actuator: k = s
     moved = sd.modal.ResidualDynamics(lam, R, sensors=res.sensors, actuators=res.actuators)
     Hr = np.moveaxis(um.perturbed(np.where(modal, 0, d))(w), 2, 0)
-    want_r = nm.replace(F=None, residual=moved).frf(f).H
+    want_r = _realised(nm.replace(residual=moved), f)
     assert np.abs(Hr - nominal).max() > 1e-3 * np.abs(want).max()
     assert np.abs(Hr - want_r).max() < 1e-9 * np.abs(want_r).max()
     # the LFT closed with the same deltas is that perturbed model

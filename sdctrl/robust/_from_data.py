@@ -12,8 +12,9 @@ Two sources of bounds on the parameters of a normal-mode model (5.5):
 
 With several tests that also carry statistics, each bound is the larger of the two (the
 statistical bound with the root-mean-square standard deviation of the tests).  The source is
-recorded in :attr:`UncertainModel.source`.  A residual-mass term ``F`` of the nominal model is
-dropped (the uncertain model of 5.5 has none; see :func:`uncertain`).
+recorded in :attr:`UncertainModel.source`.  The residual terms ``E`` and ``F`` of the nominal
+model stay as they are, certain (:mod:`._fixed_parts`): the uncertain model's nominal plant is
+the model's own.
 
 The residual dynamics of one identified model (complex modes kept as they are: poles fitted
 outside the band, modes that could not be made proper) are as uncertain as the modes: their
@@ -123,8 +124,6 @@ def uncertain_from_data(models, level: float = 0.95) -> UncertainModel:
     if bad:
         raise ValueError(f"models: the statistics of {bad} are undetermined (NaN): the data "
                          "do not determine these parameters; give several tests")
-    if nominal.F is not None:
-        nominal = nominal.replace(F=None)
     um = uncertain(nominal, **{_KEYS[k]: bounds[k] for k in _KEYS}, **residual)
     return dataclasses.replace(um, source=source)
 
