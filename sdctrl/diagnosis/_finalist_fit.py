@@ -20,8 +20,13 @@ from sdctrl.diagnosis._residual_map import cost, log_ratio, ratio_cost
 
 __all__ = ["fit_task"]
 
-#: the resonator's fit starts on at most this many lines (every k-th)
+#: the resonator's fit starts on at most this many lines (every k-th) ...
 PRE_FIT_LINES = 200
+#: ... with at most this many evaluations (a true resonator's takes 7-19 on the truss), and
+#: then at most this many on all the lines (4-9)
+PRE_NFEV, FINAL_NFEV = 50, 20
+#: a first fit whose log-mass ends this close to its lower bound has no resonator left
+VANISHED = 1e-3
 
 
 def _fit_size(t, cost_of):
@@ -53,21 +58,30 @@ def _resonator_D(s, x):
 
 def _fit_resonator(t, A, P, Gkk):
     """Least squares on mass, frequency and damping (log coordinates), exact Jacobian: first
-    on every k-th line (at most :data:`PRE_FIT_LINES`), then from there on all the lines
-    (a few iterations: the optimum of all the lines is sought from a point next to it)."""
+    on every k-th line (at most :data:`PRE_FIT_LINES`, :data:`PRE_NFEV` evaluations), then
+    from there on all the lines (a few iterations, at most :data:`FINAL_NFEV`: the optimum of
+    all the lines is sought from a point next to it).  A resonator whose first fit drives its mass onto the lower bound
+    has no effect left (the data want none): its frequency and damping are then undetermined,
+    and the fit on all the lines, which would wander along that valley, is not run."""
     x0 = np.log([t["grid"][t["best"]], t["omega"], t["zeta"]])
     lb = [np.log(t["bounds"][0]), x0[1] - 0.3, np.log(1e-5)]
     ub = [np.log(t["bounds"][1]), x0[1] + 0.3, np.log(0.5)]
     x = np.clip(x0, lb, ub)
     k = -(-t["s"].size // PRE_FIT_LINES)
+    nfev = 100
     if k > 1:
-        x = _least_squares(t["s"][::k], A[::k], P[::k], Gkk[::k], x, lb, ub).x
-    res = _least_squares(t["s"], A, P, Gkk, x, lb, ub)
+        x = _least_squares(t["s"][::k], A[::k], P[::k], Gkk[::k], x, lb, ub, PRE_NFEV).x
+        nfev = FINAL_NFEV
+        if x[0] <= lb[0] + VANISHED:                 # vanished: the cost on all the lines
+            D = _resonator_D(t["s"], x)[0]
+            return (ratio_cost(A - (D / (1.0 + D * Gkk))[:, None, None] * P),
+                    *(float(v) for v in np.exp(x)))
+    res = _least_squares(t["s"], A, P, Gkk, x, lb, ub, nfev)
     m, w, z = np.exp(res.x)
     return float(np.mean(res.fun**2) * 2), float(m), float(w), float(z)
 
 
-def _least_squares(s, A, P, Gkk, x0, lb, ub):
+def _least_squares(s, A, P, Gkk, x0, lb, ub, max_nfev=100):
     """The resonator's least-squares fit on lines ``s`` from ``x0``."""
     def parts(x):
         D, dD = _resonator_D(s, x)
@@ -86,7 +100,7 @@ def _least_squares(s, A, P, Gkk, x0, lb, ub):
         return np.stack([np.r_[c.real, c.imag] for c in cols], axis=1)
 
     return least_squares(rv, x0, jac=jac, bounds=(lb, ub), x_scale=[1, 0.01, 1],
-                         xtol=1e-8, ftol=1e-9, max_nfev=100)
+                         xtol=1e-8, ftol=1e-9, max_nfev=max_nfev)
 
 
 def fit_task(t) -> tuple:

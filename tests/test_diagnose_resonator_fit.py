@@ -1,0 +1,72 @@
+"""The resonator finalists' fit on many lines (sdctrl.diagnosis._finalist_fit): a first fit on
+every k-th line, then at most FINAL_NFEV evaluations on all the lines, none when the first fit
+drove the mass onto its lower bound (the resonator vanished).  The truss at 600 lines (the
+fit on all the lines runs only beyond PRE_FIT_LINES = 200)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sdctrl as sd
+import sdctrl.diagnosis._finalist_fit as ff
+import test_diagnose as T
+
+LINES = np.linspace(8.0, 60.0, 600)
+
+
+def _diagnose(monkeypatch, case, noise, calls=None, **patch):
+    monkeypatch.setattr(T, "FREQ", LINES)
+    for k, v in patch.items():
+        monkeypatch.setattr(ff, k, v)
+    if calls is not None:
+        orig = ff._least_squares
+
+        def spy(s, A, P, Gkk, x0, lb, ub, max_nfev=100):
+            r = orig(s, A, P, Gkk, x0, lb, ub, max_nfev)
+            calls.append((s.size, r.nfev, bool(r.x[0] <= lb[0] + ff.VANISHED)))
+            return r
+        monkeypatch.setattr(ff, "_least_squares", spy)
+    data = T.clean_data(case)
+    d = sd.diagnose(T.nominal(), T.noisy(data, noise) if noise else data, T.FE,
+                    progress=False)
+    monkeypatch.undo()
+    return d
+
+
+def test_resonator_found_as_with_an_unbounded_final_fit(monkeypatch):
+    """A 0.05 kg resonator at 30 Hz on N33.z, 1% noise: found (location, frequency 0.1%,
+    damping and mass 3%), its parameters those of the fit without the evaluation limit to
+    1e-6, and no fit on all the lines took more than FINAL_NFEV evaluations."""
+    calls = []
+    d = _diagnose(monkeypatch, T.CASES["resonator"], 0.01, calls)
+    ref = _diagnose(monkeypatch, T.CASES["resonator"], 0.01, FINAL_NFEV=100, PRE_NFEV=100)
+    e, r = d.effects[0], ref.effects[0]
+    assert (e.kind, e.location) == (r.kind, r.location) == ("missing_mode", "N33.z")
+    for k, truth, tol in (("frequency", 30.0, 1e-3), ("damping", 0.01, 0.03),
+                          ("mass", 0.05, 0.03)):
+        assert e.parameters[k] == pytest.approx(truth, rel=tol)
+        assert e.parameters[k] == pytest.approx(r.parameters[k], rel=1e-6)
+    assert d.error_after == pytest.approx(ref.error_after, rel=1e-9)
+    full = [n for size, n, _ in calls if size == LINES.size]
+    assert full and max(full) <= ff.FINAL_NFEV
+    assert max(n for size, n, _ in calls if size < LINES.size) <= ff.PRE_NFEV
+
+
+def test_vanished_resonator_not_fitted_on_all_lines(monkeypatch):
+    """A 0.05 kg mass at N20 (1% noise): found within 3 std; the resonator finalists whose
+    first fit drove the mass onto its lower bound (the data want no resonator there) are not
+    fitted again on all the lines -- there was at least one -- and every other fit on all the
+    lines stops within FINAL_NFEV evaluations (one ran to 100 before, 3 s of CPU)."""
+    calls = []
+    d = _diagnose(monkeypatch, ("mass_change", "N20", 0.05), 0.01, calls)
+    e = d.effects[0]
+    assert (e.kind, e.location) == ("mass_change", "N20")
+    assert abs(e.parameters["dm"] - 0.05) <= 3 * e.std["dm"]
+    assert d.error_after == pytest.approx(1e-4, rel=0.05)
+    pre = [(i, vanished) for i, (size, _, vanished) in enumerate(calls) if size < LINES.size]
+    assert any(v for _, v in pre)
+    for i, vanished in pre:
+        follows = i + 1 < len(calls) and calls[i + 1][0] == LINES.size
+        assert follows != vanished
+    assert max(n for size, n, _ in calls if size == LINES.size) <= ff.FINAL_NFEV
