@@ -4,6 +4,7 @@ plate of :func:`sdctrl.testbeds.lattice` (issue 27).
 Plain script::
 
     python benchmarks/bench_chain.py [--sizes 1000,10000] [--big] [--bars 1000]
+                                     [--no-diagnose]
 
 Steps, each timed at every size in one run (wall seconds and the process's CPU seconds:
 on a shared machine the wall time follows the load, the CPU time much less):
@@ -17,15 +18,27 @@ on a shared machine the wall time follows the load, the CPU time much less):
 ``static``     ``static_correction(b, phi)`` of the 3 shakers on that model
 ``update``     ``sd.update`` with the 2 parameters of the structure (errors printed)
 ``identify``   ``sd.identify`` + ``sd.normal_modes`` (independent of N)
-``hybrid``     ``sd.hybrid(updated fe, nm, sensor_c)``
+``hybrid``     ``sd.hybrid(updated fe, nm, sensor_c)`` (default ``residual="auto"``)
 ``placement``  ``sd.placement_study`` of a D-strut over ``--bars`` bars of the updated model
+``retest``     a mass planted in the TRUE FE model at a top-layer node that is not tested
+               (:func:`planted_node`), sized to shift its most affected in-band mode by
+               0.5% (:data:`PLANTED_SHIFT`, a rule on the modes, not on one lattice), and
+               the retest simulated as ``test`` is (same modal synthesis, 400 lines) with
+               1% relative noise
+``diagnose``   ``sd.diagnose(hybrid, retest, fe=updated fe, reach=1e-9)``: every element
+               and every node is a candidate location (16,474 pairs and 3,364 nodes at
+               10^4 DOFs; the 10,092 node DOFs too for resonators once a free mode is
+               seen).  There is no argument to give ``diagnose`` a list of locations, and
+               its default ``reach`` (1.5 times the longest element) is here 1.5 times a
+               dashpot across the plate: every pair of nodes (5.2 million at 10^4 DOFs)
 
 The last columns are the growth exponent ``log(t2 / t1) / log(N2 / N1)`` of the CPU time
 between the two largest sizes (asked: <= 1.2), then the ratio ``modes / eigsh`` per size
 and the per-candidate placement time.  Each step's figure is printed as soon as it is
-measured (a long run can be followed).  The diagnosis scan is
-not run: its candidate set-up is dense over all node DOFs (see the README's Performance
-section).
+measured (a long run can be followed), with, after the diagnosis, the planted mass, the
+effects found (kind, location) and the fitted mass's rank and relative error.
+``--no-diagnose`` stops after the placement (the diagnosis over 10^5 candidate
+locations takes long on a loaded machine).
 """
 
 from __future__ import annotations
@@ -43,7 +56,14 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import sdctrl as sd  # noqa: E402
 
 STEPS = ("build", "test", "eigsh", "modes", "static", "update", "identify", "hybrid",
-         "placement")
+         "placement", "retest", "diagnose")
+#: relative noise of the retest; the planted mass shifts its most affected in-band mode by
+#: this fraction of its frequency (half a half-power bandwidth at 1% damping)
+RETEST_NOISE, PLANTED_SHIFT = 0.01, 0.005
+#: the diagnosis scans the elements and nodes only: its default ``reach`` (1.5 times the
+#: longest element) is here 1.5 times a dashpot across the plate, i.e. every pair of nodes
+#: (5.2 million pairs at 10^4 DOFs)
+REACH = 1e-9
 
 
 class Clock:
@@ -61,7 +81,7 @@ class Clock:
         return out
 
 
-def chain(dofs: int, bars: int) -> tuple[int, Clock, dict]:
+def chain(dofs: int, bars: int, diagnose: bool = True) -> tuple[int, Clock, dict]:
     """Run the chain on a lattice of about ``dofs`` DOFs; ``(N, clock, figures)``."""
     clk = Clock()
 
@@ -97,7 +117,63 @@ def chain(dofs: int, bars: int) -> tuple[int, Clock, dict]:
                "update error": {k: float(f"{up.values[k] - v:.2g}") for k, v in s.truth.items()},
                "truth": s.truth, "hybrid modes": h.n, "bars": len(st.candidates),
                "best bar": st.best.bar}
+    if diagnose:
+        retest, planted = clk("retest", planted_retest, s, h, n=400)
+        d = clk("diagnose", sd.diagnose, h, retest, fe=up.fe, reach=REACH, progress=False)
+        figures.update(found(d, planted), candidates=d.info.get("candidates"),
+                       steps=len(d.steps))
     return fe.N, clk, figures
+
+
+def planted_node(s) -> str:
+    """A node of the top layer, not tested, at fixed fractions of the plate (any size)."""
+    return f"L{round(0.6 * (s.nx - 1))}_{round(s.ny / 3)}_1"
+
+
+def planted_retest(s, h, n=400):
+    """``(retest FRF, (node, dm))``: the TRUE FE model with a mass added at
+    :func:`planted_node`, tested as ``s.frf`` tests it (the same modal synthesis: 40 modes,
+    projected damping, exact static correction of the rest) plus 1% relative noise.  The
+    mass shifts the in-band mode it affects most by :data:`PLANTED_SHIFT` (first order,
+    ``dw / w = dm |phi_node|^2 / 2`` on the hybrid model's mass-normalised shapes): a rule,
+    not a size tuned on one lattice."""
+    import scipy.sparse as sp
+
+    fe = s.fe()
+    node = planted_node(s)
+    rows = fe.dof_index([f"{node}.{a}" for a in "xyz"])
+    hrows = {lab: i for i, lab in enumerate(h.dofs)}
+    phi = h.shapes[[hrows[f"{node}.{a}"] for a in "xyz"]]
+    inb = (h.frequency >= s.band[0]) & (h.frequency <= s.band[1])
+    q2 = np.sum(np.abs(phi[:, inb]) ** 2, axis=0)
+    dm = float(2 * PLANTED_SHIFT / q2.max())
+    dM = sp.csr_matrix((np.full(3, dm), (rows, rows)), shape=fe.M.shape)
+    fe2 = sd.FEModel(fe.M + dM, fe.K, fe.C, dofs=fe.dofs, nodes=dict(fe.nodes),
+                     elements=fe.elements, assembly=fe.assembly)
+    nm = fe2.normal_mode_model(list(s.shakers), list(s.sensors), 40, static="E")
+    freq = np.linspace(*s.band, n)
+    H = nm.frf(freq, "acceleration").H
+    e = np.random.default_rng(27).standard_normal(H.shape + (2,)) @ np.array([1, 1j])
+    frf = sd.FRF(freq, H * (1 + RETEST_NOISE * e / np.sqrt(2)), quantity="acceleration",
+                 sensors=s.sensors, actuators=s.shakers,
+                 collocated=[(i, i) for i in range(len(s.shakers))])
+    return frf, (node, dm)
+
+
+def found(d, planted) -> dict:
+    """Rank, location and size error of the planted mass among the diagnosis's effects."""
+    node, dm = planted
+    kinds = [(e.kind, e.location) for e in d.effects]
+    out = {"planted": f"{dm:.4g} kg at {node}",
+           "effects": [f"{k} {loc}" for k, loc in kinds]}
+    for i, e in enumerate(d.effects):
+        if e.kind == "mass_change" and e.location == node:
+            out["found"] = (f"rank {i + 1}, dm {e.parameters['dm']:.4g} kg, "
+                            f"error {e.parameters['dm'] / dm - 1:+.1%}")
+            break
+    else:
+        out["found"] = "no"
+    return out
 
 
 def table(runs) -> str:
@@ -107,6 +183,8 @@ def table(runs) -> str:
     head += " | growth exponent |\n|---|" + "---:|" * (len(sizes) + 1) + "\n"
     rows = []
     for step in STEPS:
+        if not all(step in c.wall for _, c, _ in runs):
+            continue
         cells = [f"{c.wall[step]:.2f} s ({c.cpu[step]:.2f})" for _, c, _ in runs]
         g = ""
         if len(runs) > 1:
@@ -127,14 +205,15 @@ def main(argv=None):
     ap.add_argument("--sizes", default="1000,10000")
     ap.add_argument("--big", action="store_true", help="add the 10^5-DOF run (minutes)")
     ap.add_argument("--bars", type=int, default=1000)
+    ap.add_argument("--no-diagnose", action="store_true", help="stop after the placement")
     a = ap.parse_args(argv)
     sizes = [int(x) for x in a.sizes.split(",")] + ([100_000] if a.big else [])
     runs = []
     for n in sizes:
         print(f"lattice({n}):", flush=True)
-        N, clk, fig = chain(n, a.bars)
+        N, clk, fig = chain(n, a.bars, not a.no_diagnose)
         runs.append((N, clk, fig))
-        print(f"N = {N:,}: " + ", ".join(f"{k} {clk.wall[k]:.1f} s" for k in STEPS)
+        print(f"N = {N:,}: " + ", ".join(f"{k} {v:.1f} s" for k, v in clk.wall.items())
               + f"; {fig}", flush=True)
     print("\nwall seconds (CPU seconds of the process); growth exponent of the CPU time "
           "between the two largest sizes\n")

@@ -220,23 +220,26 @@ def _screen(S, placed, H, mode, executor, progress):
     all, the full grid for the best of each family, the best of those again with their exact
     static correction (:func:`_rescreen`).
 
+    The candidates' transfers are computed chunk by chunk as the chunks run (serially or
+    on an executor's threads), on the lines of the stage only: memory grows with a chunk,
+    not with the candidates times the lines (at 10^5 DOFs, 166,000 bars' transfers on
+    200 lines and 24 sensors are 6.4 GB in single precision).  On a Dask client they are
+    computed once for all and scattered (tasks carry indices).
+
     Returns ``({family: (best cost (nc,), best column of the full grid (nc,))}, grids,
     {(family, position) screened exactly})``.
     """
     base = _screen_lines(placed, H)
     base.pop("step")
-    s = base["s"]
-    G = {}
     grids = _grids(S, mode)
-    for fi in grids:
-        name = S.families[fi].group.name
-        if name not in G:
-            G[name] = [x.astype(np.complex64)
-                       for x in _transfers(S, placed, s, S.families[fi].group)]
-
     # on Dask the transfers are scattered once for both stages, tasks carry indices
     scattered = dask_client(executor) is not None
-    shared = share(executor, {"base": base, "G": G if scattered else {}})
+    G = {}
+    for fi in grids if scattered else ():
+        group = S.families[fi].group
+        if group.name not in G:
+            G[group.name] = _transfers32(S, placed, base["s"], group)
+    shared = share(executor, {"base": base, "G": G})
     best = {fi: (np.full(S.families[fi].size, np.inf), np.zeros(S.families[fi].size, int))
             for fi in grids}
     stage1 = {fi: (np.arange(S.families[fi].size), g[2]) for fi, g in grids.items()}
@@ -248,35 +251,64 @@ def _screen(S, placed, H, mode, executor, progress):
                 sel[fi] = (np.sort(np.argsort(c, kind="stable")[:n2]),
                            np.arange(grids[fi][0].shape[1]))
         every = COARSE_EVERY if sel is stage1 else 1
-        tl = _screen_chunks(S, G, grids, sel, scattered, every)
-        res = map_chunks(_screen_task, [t for *_, t in tl], shared, executor, progress,
-                         "screen")
+        tl = _screen_chunks(S, grids, sel, every)
+        tasks = _Tasks(S, placed, base["s"][::every], tl, scattered)
+        res = map_chunks(_screen_task, tasks, shared, executor, progress, "screen")
         for (fi, p, cols, _), sc in zip(tl, res):       # stage 2 supersedes stage 1
             j = np.argmin(sc, axis=1)
             best[fi][0][p] = sc[np.arange(p.size), j]
             best[fi][1][p] = cols[j]
-    exact = _rescreen(S, placed, G, grids, best, base)
+    exact = _rescreen(S, placed, grids, best, base)
     return best, grids, exact
+
+
+def _sub(group, members) -> Group:
+    """The candidates ``members`` of ``group``."""
+    return Group(group.name, tuple(members.tolist()), group.idx[members],
+                 group.val[members])
+
+
+def _transfers32(S, placed, s, group):
+    """:func:`_transfers` in single precision (what the screen reads)."""
+    return [x.astype(np.complex64) for x in _transfers(S, placed, s, group)]
+
+
+class _Tasks:
+    """The screen's tasks, each built when it is read: its candidates' transfers on the
+    stage's lines ``s`` (or, ``scattered``, their indices in the shared ones)."""
+
+    def __init__(self, S, placed, s, chunks, scattered):
+        self.S, self.placed, self.s, self.chunks = S, placed, s, chunks
+        self.scattered = scattered
+
+    def __len__(self) -> int:
+        return len(self.chunks)
+
+    def __getitem__(self, i) -> dict:
+        fi, p, _cols, t = self.chunks[i]
+        fam = self.S.families[fi]
+        m = fam.members[p]
+        if self.scattered:
+            return {**t, "group": fam.group.name, "m": m}
+        Gyk, Gkk, Gku = _transfers32(self.S, self.placed, self.s, _sub(fam.group, m))
+        return {**t, "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku}
 
 
 def _own_flexibility(S, group, members) -> np.ndarray:
     """Exact ``beta^T Psi beta`` (4.23) of candidates ``members`` of ``group`` (nc, k, k):
-    their static corrections in batches of multi-load solves."""
+    batches of loads, each from one triangular solve with the FE model's factorisation
+    (:meth:`StaticTerms.own`)."""
     k, nd = group.rank, S.dof_idx.size
     out = np.empty((members.size, k, k))
     per = max(1, EXACT_BATCH // k)
     for a in range(0, members.size, per):
         ms = members[a:a + per]
         beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)     # (nd, nb, k)
-        b = np.zeros((S.fe.N, ms.size * k))
-        b[S.dof_idx] = beta.reshape(nd, -1)
-        psi = S.static.correction(b)[S.dof_idx].reshape(nd, ms.size, k)
-        F = np.einsum("dcp,dcq->cpq", beta, psi)
-        out[a:a + per] = 0.5 * (F + F.transpose(0, 2, 1))
+        out[a:a + per] = S.static.own(beta.reshape(nd, -1), k)
     return out
 
 
-def _rescreen(S, placed, G, grids, best, base) -> set:
+def _rescreen(S, placed, grids, best, base) -> set:
     """The best of each family screened again, on the full grid, with their exact static
     correction in ``G_kk`` instead of its projection on the test's static corrections
     (:meth:`StaticTerms.projected`): that projection misses most of the local flexibility
@@ -306,11 +338,11 @@ def _rescreen(S, placed, G, grids, best, base) -> set:
         fam = S.families[fi]
         grid, extra, _ = grids[fi]
         m = fam.members[pos]
-        Gyk, Gkk, Gku = G[fam.group.name]
-        Gkk = Gkk[m] + np.stack([fix[fam.group.name][int(c)] for c in m])[:, None]
-        t = {**base, "kind": fam.kind, "sizes": grid[pos], "Gyk": Gyk[m], "Gkk": Gkk,
-             "Gku": Gku[m], "extra": None if extra is None else (extra[0][pos],
-                                                                 extra[1][pos])}
+        Gyk, Gkk, Gku = _transfers32(S, placed, base["s"], _sub(fam.group, m))
+        Gkk = Gkk + np.stack([fix[fam.group.name][int(c)] for c in m])[:, None]
+        t = {**base, "kind": fam.kind, "sizes": grid[pos], "Gyk": Gyk, "Gkk": Gkk,
+             "Gku": Gku, "extra": None if extra is None else (extra[0][pos],
+                                                              extra[1][pos])}
         sc = screen_chunk(t)
         j = np.argmin(sc, axis=1)
         best[fi][0][pos] = sc[np.arange(pos.size), j]
@@ -319,24 +351,18 @@ def _rescreen(S, placed, G, grids, best, base) -> set:
     return done
 
 
-def _screen_chunks(S, G, grids, sel, scattered, every=1) -> list:
+def _screen_chunks(S, grids, sel, every=1) -> list:
     """``(family, positions, grid columns, task)`` of the screen's chunks of ``sel`` on every
-    ``every``-th line; a task holds its candidates' transfers, or (``scattered``) their
-    indices in the shared ones."""
+    ``every``-th line; a task holds its candidates' sizes, not yet their transfers
+    (:class:`_Tasks`)."""
     out = []
     for fi, (pos, cols) in sel.items():
         fam = S.families[fi]
         grid, extra, _ = grids[fi]
-        Gyk, Gkk, Gku = G[fam.group.name]
         for a in range(0, pos.size, CHUNK):
             p = pos[a:a + CHUNK]
-            m = fam.members[p]
             ex = None if extra is None else (extra[0][p][:, cols], extra[1][p][:, cols])
             t = {"kind": fam.kind, "sizes": grid[p][:, cols], "extra": ex, "every": every}
-            if scattered:
-                t.update(group=fam.group.name, m=m)
-            else:
-                t.update(Gyk=Gyk[m, ::every], Gkk=Gkk[m, ::every], Gku=Gku[m, ::every])
             out.append((fi, p, cols, t))
     return out
 
@@ -345,7 +371,7 @@ def _screen_task(chunk, shared):
     t = {**shared["base"], **chunk}
     k = t.pop("every")
     t.update(A=t["A"][::k], iHd=t["iHd"][::k], s=t["s"][::k])
-    if "group" in chunk:                     # transfers scattered once (Dask)
+    if "group" in chunk:                     # transfers scattered once (Dask), all lines
         Gyk, Gkk, Gku = shared["G"][t.pop("group")]
         m = t.pop("m")
         t.update(Gyk=Gyk[m, ::k], Gkk=Gkk[m, ::k], Gku=Gku[m, ::k])

@@ -219,6 +219,33 @@ class StaticTerms:
         """
         return self.fe.static_response(b) - self.T @ (self.Kt_pinv @ (self.T.T @ b))
 
+    def own(self, beta, k: int) -> np.ndarray:
+        """Exact ``b_c^T Psi b_c`` (4.23) of loads given on the candidate DOFs, ``k``
+        columns each: ``b^T K^-1 b`` (one multi-load solve) less the shapes' part
+        ``(T^T b)^T (T^T K T)^+ (T^T b)``, which needs the shapes at the candidate DOFs only
+        (never ``T^T b`` nor ``T (...)`` over all ``N`` DOFs, as :meth:`correction` forms).
+
+        Parameters
+        ----------
+        beta : ndarray, shape (nd, nc * k)
+            Loads on the candidate DOFs.
+        k : int
+            Columns per load.
+
+        Returns
+        -------
+        ndarray, shape (nc, k, k)
+            Symmetric.
+        """
+        nd = self.dof_idx.size
+        b = np.zeros((self.fe.N, beta.shape[1]))
+        b[self.dof_idx] = beta
+        x = self.fe.static_response(b)[self.dof_idx]
+        m = self.T[self.dof_idx].T @ beta
+        psi = (x - self.T[self.dof_idx] @ (self.Kt_pinv @ m)).reshape(nd, -1, k)
+        F = np.einsum("dcp,dcq->cpq", beta.reshape(nd, -1, k), psi)
+        return 0.5 * (F + F.transpose(0, 2, 1))
+
     def projected(self, group) -> np.ndarray:
         """``b^T Psi_io (Psi_io^T K Psi_io)^+ Psi_io^T b`` of every candidate of ``group``.
 

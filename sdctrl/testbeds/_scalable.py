@@ -93,8 +93,9 @@ def _io(nx: int, ny: int) -> tuple[tuple, tuple]:
 
 
 def _root_parameters(fe):
+    tip = _tip_prefix(fe)                  # once: per node it made this quadratic in N
     return [fe.stiffness_parameter("root", section="root"),
-            fe.mass_parameter("tips", [n for n in fe.nodes if n.startswith(_tip_prefix(fe))])]
+            fe.mass_parameter("tips", [n for n in fe.nodes if n.startswith(tip)])]
 
 
 def _tip_prefix(fe) -> str:
