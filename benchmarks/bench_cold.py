@@ -42,7 +42,15 @@ sdctrl, perf3 branch    2.22 s  1.21 s  0.30   load 7.3, scipy's TRF copied in (
 EMA, same run          7.38 s  1.39 s         see below)
 sdctrl, perf3, run 2    1.36 s  0.63 s  0.28   load 6.6
 EMA, same run          4.90 s  1.72 s
+sdctrl, main 32823c4    0.94 s  0.30 s  0.69   load 0.7 (quiet, 2026-11-27): EMA's fresh
+EMA, same run          1.36 s  0.29 s         time is its imports (1.15 s) and 0.2 s of fit
 =====================  ======  ======  =====  =========================================
+
+On a quiet machine the fresh ratio is 0.69, not 0.3: EMA's own fit takes 0.2 s and its
+imports 1.15 s, while a fresh ``identify`` imports scipy.linalg (0.39 s), scipy.optimize
+(0.38 s) and scipy.special (0.10 s) before its 0.3 s of fit.  The loaded runs above gave
+lower ratios because the load inflates EMA's larger import more.  Reaching 0.3 there would
+take an identification path that imports no scipy at all, which is not attempted.
 
 A fresh ``identify`` imports scipy.linalg, scipy.special (``chdtri``) and scipy.optimize
 (``least_squares``; its package import pulls shgo, linprog, scipy.spatial and
