@@ -263,9 +263,9 @@ def _screen(S, placed, H, mode, executor, progress):
 
 
 def _sub(group, members) -> Group:
-    """The candidates ``members`` of ``group``."""
-    return Group(group.name, tuple(members.tolist()), group.idx[members],
-                 group.val[members])
+    """The candidates ``members`` of ``group`` (their locations, load DOFs and weights)."""
+    return Group(group.name, tuple(group.locations[int(c)] for c in members),
+                 group.idx[members], group.val[members])
 
 
 def _transfers32(S, placed, s, group):
@@ -328,8 +328,7 @@ def _rescreen(S, placed, grids, best, base) -> set:
     for name, ms in by_group.items():
         group = next(f.group for f in S.families if f.group.name == name)
         ms = np.array(sorted(ms), int)
-        sub = Group(name, (), group.idx[ms], group.val[ms])
-        delta = _own_flexibility(S, group, ms) - S.static.projected(sub)
+        delta = _own_flexibility(S, group, ms) - S.static.projected(_sub(group, ms))
         fix[name] = dict(zip(ms.tolist(), delta.astype(np.complex64)))
     done = set()
     for fi, pos in short.items():
