@@ -124,3 +124,61 @@ def test_auto_without_residual_terms_chooses_between_identified_and_fe():
     assert r.representation in ("identified", "fe")
     with pytest.raises(ValueError, match="residual must be one of.*'auto'"):
         sd.hybrid(wrong, nm, list(st.sensors), list(st.shakers), residual="automatic")
+
+
+def _exact_test(st):
+    """A structure's true FE modes in its band as the test's normal modes, with the exact
+    residual flexibility ``E`` of the modes above (static correction 2.21 at the I/O)."""
+    true = st.fe()
+    SH, SE = list(st.shakers), list(st.sensors)
+    f, phi = true.modes(min(true.N - 2, 60))
+    n = int(np.flatnonzero(f < st.band[1])[-1]) + 1
+    E = true.point(SE).T @ true.static_correction(true.point(SH), phi[:, :n])
+    return true.normal_mode_model(SH, SE, n).replace(E=E)
+
+
+@pytest.mark.parametrize("name", ["plate", "lattice"])
+def test_auto_sharing_one_static_solve_is_the_model_of_a_solve_per_build(name):
+    """``sd.hybrid`` solves ``K^-1`` of the test inputs once and hands its columns to every
+    build and fold of ``residual="auto"`` (the expansion basis, the model's static
+    correction, the held-out input's); built straightforwardly (each build and each
+    held-out prediction solving for its own loads: ``_auto(..., response=None)``, and the
+    held-out input through ``with_io`` itself) the model is the same to round-off, and so
+    is the choice.  The lattice (1,500 DOFs) takes the sparse path, the plate the dense one."""
+    from sdctrl.hybrids import _auto as auto_mod
+    from sdctrl.hybrids import _build as b
+
+    st = (sd.testbeds.lattice(1500) if name == "lattice" else sd.testbeds.structure(name))
+    wrong, nm = st.wrong(), _exact_test(st)
+    SH, SE = list(st.shakers), list(st.sensors)
+    h = _hybrid(wrong, nm, SE, SH)
+    c, bb = b.placed_io(wrong, nm, SE, SH)
+    w2, fmax, mac_min = b._measured(nm, None, b.MAC_POOR)
+    f_fe, phi_fe = b.fe_modes_upto(wrong, max(fmax, 1.05 * np.sqrt(w2.max()) / (2 * np.pi)),
+                                   nm.n)
+    setup = b._Setup(wrong, f_fe, phi_fe, mac_min, "regularised")
+    loads, _ = b._loads(wrong, nm, bb)
+    calls = []
+
+    def held_out(m, loads, response, j):        # the plain with_io, no shared column
+        calls.append(response)
+        return m.with_io(b=loads[:, [j]])
+
+    orig, auto_mod._held_out_input = auto_mod._held_out_input, held_out
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ref = b._auto(setup, nm, c, loads, None, None)
+    finally:
+        auto_mod._held_out_input = orig
+    assert calls and all(r is None for r in calls)
+    r, r0 = h.construction.residual, ref.construction.residual
+    assert r.representation == r0.representation and r.variant == r0.variant
+    assert r.chosen_by == r0.chosen_by and r.held_out.tolist() == r0.held_out.tolist()
+    for k, v in r0.loo_scores.items():
+        assert r.loo_scores[k] == pytest.approx(v, rel=1e-9, abs=0)
+    assert r.nominal_scores == pytest.approx(r0.nominal_scores, rel=1e-9, abs=0)
+    assert h.kind.tolist() == ref.kind.tolist()
+    for k in ("Omega", "Gamma", "cphi", "phib", "shapes"):
+        a, x = getattr(h, k), getattr(ref, k)
+        np.testing.assert_allclose(a, x, rtol=0, atol=1e-9 * np.abs(x).max(), err_msg=k)

@@ -166,7 +166,8 @@ def principal_static_basis(phi_s, M, K):
     return V @ Rc, wc2
 
 
-def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float = 1e-6):
+def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float = 1e-6, *,
+                            response: np.ndarray | None = None):
     """Static correction modes of loads ``B`` consistent with given shapes (4.23)-(4.24).
 
     The thesis notes (5.1.2) that the FE static correction mode (2.21), built against the
@@ -190,6 +191,11 @@ def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float =
     rtol : float
         Directions whose residual is below ``rtol`` times the static response (in the
         mass norm) are dropped: the shapes already hold them.
+    response : ndarray, shape (N, k), optional
+        ``K^-1 B`` when the caller has it already (:meth:`FEModel.static_response` of
+        ``B``): one solve shared by several calls on the same loads (a hybrid model's
+        construction and its folds, :func:`sdctrl.hybrid`); equal to round-off to the
+        solve made here without it.
 
     Returns
     -------
@@ -199,7 +205,10 @@ def consistent_static_modes(fe, B: np.ndarray, shapes: np.ndarray, rtol: float =
         Their ``omega^2`` (rad/s)^2 (``V^T K V`` diagonal), increasing.
     """
     M = fe.M
-    X = fe.static_response(B)
+    X = fe.static_response(B) if response is None else np.asarray(response, float)
+    if X.shape != (fe.N, np.shape(B)[1]):
+        raise ValueError(f"response must have the shape (N, k) = {(fe.N, np.shape(B)[1])} "
+                         f"of K^-1 B, got {X.shape}")
     S = np.asarray(shapes, float)
     if S.shape[1]:
         MS = np.asarray(M @ S)

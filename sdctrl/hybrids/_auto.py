@@ -33,6 +33,7 @@ import numpy as np
 from sdctrl.modal._operations import io_kept
 from sdctrl.updating._costs import logls
 from sdctrl.hybrids._hybrid_basis import band_lines
+from sdctrl.hybrids._predictions import with_static
 
 __all__ = ["MAX_FOLDS", "TIE", "choose_residual", "has_tested"]
 
@@ -53,19 +54,34 @@ def has_tested(nm) -> bool:
     return not (nm.E is None and nm.F is None and nm.residual is None)
 
 
+def _held_out_input(m, loads, response, j):
+    """``m.with_io(b=loads[:, [j]])``, its static correction (2.21) made from column ``j``
+    of ``response`` (``K^-1 loads``) when given instead of a solve of its own."""
+    b = loads[:, [j]]
+    if m.static_ready:
+        m = with_static(m, b, response=_columns(response, [j]))
+    return m.with_io(b=b, static=False)
+
+
+def _columns(response, cols):
+    """Columns ``cols`` of ``response`` (None stays None)."""
+    return None if response is None else response[:, cols]
+
+
 def _folds(n: int) -> np.ndarray:
     """Indices of the held-out channels: all of ``n``, or :data:`MAX_FOLDS` evenly spread."""
     return np.unique(np.round(np.linspace(0, n - 1, min(n, MAX_FOLDS))).astype(int))
 
 
-def choose_residual(build, nm, c, loads, full: dict):
+def choose_residual(build, nm, c, loads, full: dict, *, response=None):
     """Residual representation of a hybrid by leave-one-out prediction on the test's channels.
 
     Parameters
     ----------
     build : callable
-        ``build(nm_k, c_k, loads_k, names) -> dict`` of candidate name to HybridModel: the
-        candidates ``names`` built from a test without some channels.
+        ``build(nm_k, c_k, loads_k, names, response_k) -> dict`` of candidate name to
+        HybridModel: the candidates ``names`` built from a test without some channels
+        (``response_k`` the columns of ``response`` of ``loads_k``, or None).
     nm : NormalModeModel
         The identified model.
     c : ndarray, shape (ns, N)
@@ -74,6 +90,10 @@ def choose_residual(build, nm, c, loads, full: dict):
         Test inputs on the FE DOFs (None: not placed).
     full : dict of str to HybridModel
         The candidates built from the whole test.
+    response : ndarray, shape (N, na), optional
+        ``K^-1 loads``: its columns serve every fold (the builds' static corrections and the
+        held-out input's, :func:`~sdctrl.hybrids._predictions.with_static`) instead of a
+        solve per fold; None: each solves for its own loads (the same to round-off).
 
     Returns
     -------
@@ -100,13 +120,14 @@ def choose_residual(build, nm, c, loads, full: dict):
     for j in folds:
         if how == "leave-one-actuator-out":
             rest = np.delete(np.arange(nm.na), j)
-            models = build(io_kept(nm, actuators=rest), c, loads[:, rest], names)
+            models = build(io_kept(nm, actuators=rest), c, loads[:, rest], names,
+                           _columns(response, rest))
             for k, m in models.items():
-                per[k].append(logls(m.with_io(b=loads[:, [j]]).frf(hz).H[:, :, 0],
-                                     Href[:, :, j]))
+                per[k].append(logls(_held_out_input(m, loads, response, j).frf(hz).H[:, :, 0],
+                                    Href[:, :, j]))
         else:
             rest = np.delete(np.arange(nm.ns), j)
-            models = build(io_kept(nm, sensors=rest), c[rest], loads, names)
+            models = build(io_kept(nm, sensors=rest), c[rest], loads, names, response)
             for k, m in models.items():
                 per[k].append(logls(m.with_io(c=c[[j]]).frf(hz).H[:, 0, :], Href[:, j, :]))
     loo = {k: float(np.mean(per[SAME_PREDICTIONS.get(k, k)])) for k in full}

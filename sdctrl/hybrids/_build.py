@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_scalar
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.fe._fe_checks import shapes_on_dofs
@@ -47,6 +48,7 @@ from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
 from sdctrl.hybrids._tested_io import TestedIO, keep_tested, realise_residual
 from sdctrl.hybrids._auto import choose_residual, has_tested
+from sdctrl.hybrids._io_checks import placed_io
 
 __all__ = ["hybrid", "pairing_report"]
 
@@ -222,29 +224,45 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         raise ValueError("residual='tested' needs an nm with residual terms (E, F or "
                          "residual dynamics, as sd.normal_modes builds it); this nm has none: "
                          "use residual='identified'")
-    c, b = _test_io(fe, nm, sensor_c, actuator_b)
-    w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
-    f_id = np.sqrt(w2_id) / (2 * np.pi)
-    f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
-    setup = _Setup(fe, f_fe, phi_fe, mac_min, expansion)
-    _warn_left_out(nm)
-    loads, unexcited = _loads(fe, nm, b)
-    if unexcited:
-        warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
-                      "modes are not excited by the model's inputs; give actuator_b",
-                      stacklevel=2)
-    if residual != "auto":
-        return _variants(setup, nm, c, loads, (residual,), static_b=static_b)[0][residual]
-    candidates = _RESIDUALS if has_tested(nm) else ("identified", "fe")
-    full, prior = _variants(setup, nm, c, loads, candidates, static_b=static_b)
+    c, b = placed_io(fe, nm, sensor_c, actuator_b)
+    # one BLAS thread for the whole build (the policy of identify, sdctrl._lib.threads):
+    # its kernels are small dense products and solves, which BLAS threads on the shared
+    # 2-core machine made 2-10x slower, in CPU time too (issue 27)
+    with single_thread():
+        w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
+        f_id = np.sqrt(w2_id) / (2 * np.pi)
+        f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
+        setup = _Setup(fe, f_fe, phi_fe, mac_min, expansion)
+        _warn_left_out(nm)
+        loads, unexcited = _loads(fe, nm, b)
+        if unexcited:
+            warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
+                          "modes are not excited by the model's inputs; give actuator_b",
+                          stacklevel=2)
+        # K^-1 of the test inputs (4.23), solved once: the static corrections of the model, of
+        # its expansion basis and of every fold of "auto" are made from its columns
+        response = None if loads is None else fe.static_response(loads)
+        if residual != "auto":
+            return _variants(setup, nm, c, loads, (residual,), static_b=static_b,
+                             response=response)[0][residual]
+        return _auto(setup, nm, c, loads, static_b, response)
 
-    def build(nm_k, c_k, loads_k, names):
+
+def _auto(setup, nm, c, loads, static_b, response):
+    """``residual="auto"``: every candidate built from the whole test, the kept one chosen
+    by :func:`~sdctrl.hybrids._auto.choose_residual`.  ``response`` is ``K^-1 loads`` shared
+    by all the builds (None: each build solves for its own loads, the same to round-off)."""
+    candidates = _RESIDUALS if has_tested(nm) else ("identified", "fe")
+    full, prior = _variants(setup, nm, c, loads, candidates, static_b=static_b,
+                            response=response)
+
+    def build(nm_k, c_k, loads_k, names, response_k):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return _variants(setup, nm_k, c_k, loads_k, names,
-                             prior=prior if c_k is c else None)[0]
+                             prior=prior if c_k is c else None, response=response_k)[0]
 
-    chosen, record = choose_residual(build, nm, c, loads, full)
+    chosen, record = choose_residual(build, nm, c, loads, full, response=response)
     model = full[chosen]
     built = model.construction
     return model.replace(construction=replace(built, residual=replace(built.residual,
@@ -264,10 +282,12 @@ class _Setup:
     expansion: str
 
 
-def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=None):
+def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=None,
+              response=None):
     """The hybrid models of ``nm`` tested at ``c``/``loads``, one per residual
     representation of ``residuals``, sharing their pairing and expansion (5.1.1, 4.7):
-    ``(dict of name to HybridModel, the expansion prior)``; ``prior`` reused when given
+    ``(dict of name to HybridModel, the expansion prior)``; ``prior`` and ``response``
+    (``K^-1 loads``) reused when given
     (:func:`~sdctrl.hybrids._hybrid_basis.build_basis`)."""
     fe, f_fe, phi_fe = setup.fe, setup.f_fe, setup.phi_fe
     w2_id = np.clip(np.diag(nm.Omega), 0, None)
@@ -281,7 +301,7 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
                       stacklevel=3)
     poor = _warn_poor(km, mac_pairs, setup.mac_min, fe_idx, f_id, f_fe)
     base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
-                       fe_idx[kept], setup.expansion, prior)
+                       fe_idx[kept], setup.expansion, prior, response)
     zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
     pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],
                           test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)
@@ -433,38 +453,6 @@ def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:
     off = np.hstack([modes.offset[:, keep], np.zeros((modes.offset.shape[0], V.shape[1]))])
     return ModeSet(np.hstack([modes.shapes[:, keep], V]), np.concatenate([modes.w2[keep], wc2]),
                    G, pb, np.concatenate([modes.kind[keep], label]), off)
-
-
-def _test_io(fe, nm, sensor_c, actuator_b):
-    """Test sensors ``c`` (ns, N) and, when given, actuators ``b`` (N, na) on the FE DOFs."""
-    N = fe.N
-    c, _ = shapes_on_dofs(sensor_c, N, fe.dofs, "sensor_c", output=True)
-    if c.shape[0] != nm.ns:
-        raise ValueError(f"sensor_c must have one row per sensor of nm (ns={nm.ns}), got "
-                         f"{c.shape[0]}")
-    _check_io_scale(c, "sensor_c")
-    b = None
-    if actuator_b is not None:
-        b, _ = shapes_on_dofs(actuator_b, N, fe.dofs, "actuator_b")
-        if b.shape[1] != nm.na:
-            raise ValueError(f"actuator_b must have one column per input of nm (na={nm.na}), "
-                             f"got {b.shape[1]}")
-        _check_io_scale(b.T, "actuator_b")
-    return c, b
-
-
-def _check_io_scale(x, name):
-    """Each sensor (row) or input (column) shape must be non-zero and of a usable scale:
-    the expansion fits ``c phi`` in a scale-free way, but zero, overflowing or subnormal
-    shapes make it meaningless."""
-    if not np.all(np.isfinite(x)):
-        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
-    nrm = np.linalg.norm(x, axis=1)
-    big = np.abs(x).max() if x.size else 0.0
-    if np.any(nrm == 0) or big > 1e100 or np.any(nrm < 1e-100):
-        raise ValueError(f"{name}: every shape must be non-zero with entries of a usable "
-                         f"scale (norms between 1e-100 and 1e100), got norms in "
-                         f"[{nrm.min() if nrm.size else 0:.3g}, {big:.3g}]")
 
 
 def _measured(nm, fmax, mac_min):

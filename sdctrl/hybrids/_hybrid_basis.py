@@ -112,7 +112,7 @@ class HybridBasis:
 
 
 def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
-                expansion: str = "regularised", prior=None) -> HybridBasis:
+                expansion: str = "regularised", prior=None, response=None) -> HybridBasis:
     """Expanded, low, appended and static shapes of a hybrid model.
 
     Parameters
@@ -140,6 +140,10 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
         leave-one-sensor-out cross-validation (:func:`~sdctrl.hybrids._expansion.loo_prior`).
         Given, it is reused: the folds of ``residual="auto"`` that hold out an actuator keep
         the sensors and ``cphi``, hence the prior.
+    response : ndarray, shape (N, na), optional
+        ``K^-1 loads`` (4.23) when the caller has it: both static corrections below (the
+        expansion basis's and the model's, 2.21) and the folds of ``residual="auto"`` then
+        share one solve; computed here otherwise (equal to round-off).
 
     Returns
     -------
@@ -155,7 +159,9 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
     else:
         T, lam_T = phi_fe[:, ~low], lam_fe[~low]
         if loads is not None:                             # static correction (2.21)
-            V, wc2 = consistent_static_modes(fe, loads, phi_fe)
+            if response is None:
+                response = fe.static_response(loads)
+            V, wc2 = consistent_static_modes(fe, loads, phi_fe, response=response)
             T, lam_T = np.hstack([T, V]), np.concatenate([lam_T, wc2])
         where = np.cumsum(~low) - 1                       # index of FE mode k in T
         if prior is None:
@@ -166,7 +172,8 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
     Sa, wa2 = _orthogonal_to(fe, phi_fe[:, app], lam_fe[app], shapes)
     Sl, wl2 = phi_fe[:, low], lam_fe[low]
     if loads is not None:
-        Vs, ws2 = consistent_static_modes(fe, loads, np.hstack([shapes, Sl, Sa]))
+        Vs, ws2 = consistent_static_modes(fe, loads, np.hstack([shapes, Sl, Sa]),
+                                          response=response)
     else:
         Vs, ws2 = np.zeros((fe.N, 0)), np.zeros(0)
     ratio = np.sqrt(np.clip(w2_id, 0, None)) / (2 * np.pi * f_fe[pair])

@@ -291,7 +291,7 @@ def _static_default(model, static) -> bool:
     return bool(static)
 
 
-def with_static(model, loads) -> HybridModel:
+def with_static(model, loads, *, response=None) -> HybridModel:
     """Model with static correction modes for ``loads``, consistent with its shapes.
 
     The FE static response ``K^-1 loads`` (4.23) made mass-orthogonal to the model's
@@ -312,6 +312,9 @@ def with_static(model, loads) -> HybridModel:
         (:attr:`HybridModel.static_ready`, e.g. built by :func:`sdctrl.hybrid`).
     loads : array_like, shape (N, k), or DOF label(s)
         Load shapes on the DOFs of the model's shapes.
+    response : ndarray, shape (N, k), optional
+        Their static response ``K^-1 loads`` when the caller has it already (the folds of
+        ``sdctrl.hybrid(residual="auto")`` share one solve); computed otherwise.
 
     Returns
     -------
@@ -329,7 +332,7 @@ def with_static(model, loads) -> HybridModel:
         raise ValueError("model must carry its FE model, sensor_c and actuator_b (a model "
                          "built by sdctrl.hybrid) to append static correction modes")
     L, _ = shapes_on_dofs(loads, model.shapes.shape[0], model.dofs, "loads")
-    V, wc2 = consistent_static_modes(model.fe, L, model.shapes)
+    V, wc2 = consistent_static_modes(model.fe, L, model.shapes, response=response)
     k = V.shape[1]
     if k == 0:
         return model
