@@ -7,6 +7,7 @@ caller passed is ever modified.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 
 import numpy as np
@@ -292,10 +293,21 @@ def check_freq(freq, name: str = "freq") -> np.ndarray:
     return f
 
 
+#: long label tuples (FE DOF labels) already returned by :func:`check_labels`, by id: a model
+#: built from another's labels (a hybrid's candidates and folds, ``replace``) skips the
+#: O(N) check of a tuple it returned (tuples of str are immutable, so the check holds)
+_CHECKED: dict[int, tuple] = {}
+_CHECKED_LOCK = threading.Lock()
+#: only tuples of at least this many labels are remembered, at most this many of them
+_CHECKED_MIN, _CHECKED_MAX = 1000, 16
+
+
 def check_labels(labels, n: int, name: str, default_prefix: str) -> tuple[str, ...]:
     """Tuple of ``n`` unique string labels (defaults ``prefix0, prefix1, ...``)."""
     if labels is None:
         return tuple(f"{default_prefix}{i}" for i in range(n))
+    if type(labels) is tuple and len(labels) == n and _CHECKED.get(id(labels)) is labels:
+        return labels
     if isinstance(labels, str) or not isinstance(labels, Sequence | np.ndarray):
         raise TypeError(f"{name} must be a sequence of {n} strings, got {type(labels).__name__}")
     out = tuple(labels)
@@ -306,12 +318,18 @@ def check_labels(labels, n: int, name: str, default_prefix: str) -> tuple[str, .
         hint = (" (sensor and actuator axes of H swapped? H.transpose(0, 2, 1))"
                 if default_prefix in ("s", "a") else "")
         raise ValueError(f"{name} must have {n} labels (one per {what}), got {len(out)}{hint}")
-    for lab in out:
-        if not isinstance(lab, str | np.str_):
-            raise TypeError(f"{name} must contain strings, got {type(lab).__name__}")
-    out = tuple(str(lab) for lab in out)
+    if set(map(type, out)) - {str}:                  # exact str needs no conversion
+        for lab in out:
+            if not isinstance(lab, str | np.str_):
+                raise TypeError(f"{name} must contain strings, got {type(lab).__name__}")
+        out = tuple(str(lab) for lab in out)
     if len(set(out)) != len(out):
         raise ValueError(f"{name} must be unique, got duplicates")
+    if len(out) >= _CHECKED_MIN:
+        with _CHECKED_LOCK:
+            while len(_CHECKED) >= _CHECKED_MAX:
+                _CHECKED.pop(next(iter(_CHECKED)))
+            _CHECKED[id(out)] = out
     return out
 
 
