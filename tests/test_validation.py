@@ -170,3 +170,22 @@ def test_first_use_refusals_say_what_to_do(tmp_path):
         sd.identify(frf, poles=[0.1 + 2j * np.pi * 15.8])
     with pytest.raises(ValueError, match=r"frf.H is real-valued .*magnitude and phase"):
         sd.identify(sd.FRF(frf.freq, np.abs(frf.H)))
+
+
+def test_check_labels_remembers_the_long_tuples_it_returned():
+    """A model built from another's FE DOF labels (a hybrid's candidates, ``replace``) skips
+    their O(N) check: ``check_labels`` returns a long tuple it returned before as is, and
+    still refuses a wrong count, duplicates, non-strings; ``np.str_`` become ``str``."""
+    from sdctrl._lib.validate import check_labels
+
+    labs = [f"d{i}" for i in range(2000)]
+    out = check_labels(labs, 2000, "dofs", "q")
+    assert out == tuple(labs) and check_labels(out, 2000, "dofs", "q") is out
+    with pytest.raises(ValueError, match="dofs must have 2001 labels"):
+        check_labels(out, 2001, "dofs", "q")
+    with pytest.raises(ValueError, match="dofs must be unique"):
+        check_labels(out[:-1] + ("d0",), 2000, "dofs", "q")
+    with pytest.raises(TypeError, match="dofs must contain strings, got int"):
+        check_labels(out[:-1] + (7,), 2000, "dofs", "q")
+    conv = check_labels(np.array(labs), 2000, "dofs", "q")
+    assert conv == out and {type(x) for x in conv} == {str}
