@@ -358,12 +358,16 @@ def placement_study(model, fe, band, kv, kp=0.0, candidates=None, outputs=None, 
     p_open = p_all[(f_all >= lo) & (f_all <= hi) & (p_all.imag > 0)]
     if p_open.size == 0:
         raise ValueError(f"band: no mode of the model between {lo:g} and {hi:g} Hz")
-    static = chunks.statics(model) if getattr(model, "static_ready", False) else None  # a hybrid's
-    reduced = _reduced(model)
-    loop = _Loop(reduced, np.asarray(model.shapes), fe, static, (lo, hi), out_idx, psd, kp,
-                 kv, criterion, p_open, _fixed_part(reduced, out_idx, (lo, hi), psd))
-    loop = replace(loop, rms_open=_open_rms(loop))
-    done = _sweep(loop, chunked(candidates, CHUNK), executor, progress)
+    # one BLAS thread for the set-up too (the open loop's band integrals: expm, logm of the
+    # reduced model), as for the chunks: threaded BLAS on these small matrices took ~3x the
+    # CPU time on the loaded 2-core machine (issue 27)
+    with single_thread():
+        static = chunks.statics(model) if getattr(model, "static_ready", False) else None
+        reduced = _reduced(model)
+        loop = _Loop(reduced, np.asarray(model.shapes), fe, static, (lo, hi), out_idx, psd,
+                     kp, kv, criterion, p_open, _fixed_part(reduced, out_idx, (lo, hi), psd))
+        loop = replace(loop, rms_open=_open_rms(loop))
+        done = _sweep(loop, chunked(candidates, CHUNK), executor, progress)
     results = [c for chunk in done for _, c, _ in chunk if c is not None]
     skipped = [(bar, why) for chunk in done for bar, c, why in chunk if c is None]
     rms_open = loop.rms_open
