@@ -105,7 +105,9 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       sensor and one actuator, that closest one (:mod:`sdctrl.hybrids._auto`).  The
       choice and its scores are ``construction.residual`` (``representation``,
       ``chosen_by``, ``held_out``, ``loo_scores``, ``nominal_scores``).  The folds reuse
-      the FE modes and, holding out an actuator, the expansion prior.  On the family of
+      the FE modes, the static response ``K^-1 b`` of the test inputs (4.23: one solve for
+      every static correction of the call) and, holding out an actuator, the expansion
+      prior.  On the family of
       test structures it keeps ``"tested"`` (the cluster at 1% noise with every shaker:
       ``"fe"``), whose nominal model is the identified one at the tested I/O, where
       ``"identified"`` is 1.2x (truss) to 45x (plate) further from it; its StateSpace then
