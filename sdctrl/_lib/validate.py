@@ -7,6 +7,7 @@ caller passed is ever modified.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 
 import numpy as np
@@ -292,10 +293,20 @@ def check_freq(freq, name: str = "freq") -> np.ndarray:
     return f
 
 
+#: label tuples of at least this many labels are remembered once checked ...
+_MANY_LABELS = 1000
+#: ... the last few of them (by identity: a tuple is immutable, so a tuple that passed once
+#: passes again; a model rebuilt in a loop with the same FE DOF labels is not checked anew)
+_CHECKED: dict[int, tuple] = {}
+_CHECKED_LOCK = threading.Lock()
+
+
 def check_labels(labels, n: int, name: str, default_prefix: str) -> tuple[str, ...]:
     """Tuple of ``n`` unique string labels (defaults ``prefix0, prefix1, ...``)."""
     if labels is None:
         return tuple(f"{default_prefix}{i}" for i in range(n))
+    if type(labels) is tuple and len(labels) == n and _CHECKED.get(id(labels)) is labels:
+        return labels
     if isinstance(labels, str) or not isinstance(labels, Sequence | np.ndarray):
         raise TypeError(f"{name} must be a sequence of {n} strings, got {type(labels).__name__}")
     out = tuple(labels)
@@ -312,6 +323,11 @@ def check_labels(labels, n: int, name: str, default_prefix: str) -> tuple[str, .
     out = tuple(str(lab) for lab in out)
     if len(set(out)) != len(out):
         raise ValueError(f"{name} must be unique, got duplicates")
+    if n >= _MANY_LABELS:
+        with _CHECKED_LOCK:
+            while len(_CHECKED) >= 8:
+                _CHECKED.pop(next(iter(_CHECKED)))
+            _CHECKED[id(out)] = out
     return out
 
 
