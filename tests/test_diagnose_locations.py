@@ -111,3 +111,32 @@ def test_bad_locations_are_refused_and_the_list_is_not_modified():
     d = sd.diagnose(model, data, fe, locations=locs, max_effects=1, progress=False)
     assert locs == before
     assert d.scanned == {"pairs": 1, "nodes": 1, "dofs": 3}
+
+
+def _lengths(fe):
+    return np.array([np.linalg.norm(np.subtract(fe.nodes[a], fe.nodes[b]))
+                     for a, b in fe.elements])
+
+
+@pytest.mark.parametrize("name", [*sd.testbeds.family(), "lattice"])
+def test_default_reach_is_the_meshs_scale(name):
+    """The default ``reach``: 1.5 times the longest element no longer than 4 times the median
+    one.  On the family it is 1.5 times the longest element (the same candidates as before the
+    rule); on the lattice plate, whose two elements across the plate (0.80 m against 0.10 m)
+    made every pair of its 342 nodes a candidate (46,817 pairs at 972 DOFs), the pairs stay
+    within 1.5 times its bars' length (5,752), as an explicit ``reach`` gives them."""
+    from sdctrl.diagnosis._candidates import OUTLIER_LENGTH, default_reach
+
+    fe = sd.testbeds.lattice(1000).fe() if name == "lattice" else member(name)[1]
+    L = _lengths(fe)
+    r = default_reach(L)
+    pairs = candidate_groups(fe)[1]["pairs"].locations
+    assert pairs == candidate_groups(fe, r)[1]["pairs"].locations
+    far = max(np.linalg.norm(np.subtract(fe.nodes[a], fe.nodes[b])) for a, b in pairs)
+    if name == "lattice":
+        assert L.max() > OUTLIER_LENGTH * np.median(L)
+        assert r == pytest.approx(1.5 * np.sort(L)[-3]) and far <= max(r, L.max())
+        assert len(pairs) == 5752 and len(fe.nodes) == 342
+    else:
+        assert r == 1.5 * L.max()
+        assert pairs == candidate_groups(fe, 1.5 * L.max())[1]["pairs"].locations

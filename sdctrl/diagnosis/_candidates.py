@@ -198,6 +198,21 @@ def _node_dofs(fe, keep=None):
     return np.asarray(idx, int), where
 
 
+#: elements longer than this many times the median element are not the mesh's scale (a
+#: brace, a suspension link, a dashpot across the structure): the default reach ignores them
+OUTLIER_LENGTH = 4.0
+
+
+def default_reach(lengths) -> float:
+    """1.5 times the longest element of the mesh's own scale: the longest element no longer
+    than :data:`OUTLIER_LENGTH` times the median one (one element across the structure would
+    otherwise make every pair of nodes a candidate); ``inf`` without elements."""
+    L = np.asarray(lengths, float)
+    if not L.size:
+        return np.inf
+    return 1.5 * float(L[L <= OUTLIER_LENGTH * np.median(L)].max())
+
+
 def _pairs(fe, reach):
     """Elements first (their own order), then unconnected pairs within ``reach`` (found by a
     k-d tree: the work grows with the pairs, not with the square of the nodes)."""
@@ -212,8 +227,7 @@ def _pairs(fe, reach):
             seen.add(key)
             elems.append((a, b))
     if reach is None:
-        L = [np.linalg.norm(X[a] - X[b]) for a, b in elems]
-        reach = 1.5 * max(L) if L else np.inf
+        reach = default_reach([np.linalg.norm(X[a] - X[b]) for a, b in elems])
     xyz = np.array([X[n] for n in names]).reshape(len(names), -1)
     if not np.isfinite(reach):
         reach = 2.0 * float(np.ptp(xyz, axis=0).max(initial=0.0)) + 1.0
@@ -232,8 +246,8 @@ def candidate_groups(fe, reach=None, locations=None):
     fe : FEModel
         With node coordinates (``fe.nodes``); elements optional.
     reach : float, optional
-        Largest distance (m) between two unconnected nodes of a pair; default 1.5 times the
-        longest element.
+        Largest distance (m) between two unconnected nodes of a pair; default
+        :func:`default_reach` (1.5 times the longest element of the mesh's scale).
     locations : tuple, optional
         The caller's own locations (:func:`~._locations.checked_locations`): node names
         (masses, resonators on their translations) and node pairs (dampers, stiffness

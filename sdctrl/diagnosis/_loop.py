@@ -254,7 +254,8 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
         Band (Hz) of the comparison; default all lines of ``frf``.
     reach : float, optional
         Largest distance (m) between two unconnected nodes scanned as a pair; default 1.5
-        times the longest element.
+        times the longest element, elements longer than 4 times the median one left out
+        (a brace or a damper across the structure is not the mesh's scale).
     locations : list of str and (str, str), optional
         Scan only these physical locations (instead of every element, node and pair within
         ``reach``): node names (a mass change at the node, a resonator on each of its
