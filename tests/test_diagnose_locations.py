@@ -111,6 +111,7 @@ def test_bad_locations_are_refused_and_the_list_is_not_modified():
     d = sd.diagnose(model, data, fe, locations=locs, max_effects=1, progress=False)
     assert locs == before
     assert d.scanned == {"pairs": 1, "nodes": 1, "dofs": 3}
+    assert "scanned (the caller's list): 1 pairs, 1 nodes, 3 dofs" in d.report()
 
 
 def _lengths(fe):

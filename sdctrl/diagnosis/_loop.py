@@ -473,6 +473,7 @@ def _run_steps(model, frf, fe, executor, opts: _Settings, physical):
     if cand is not None:
         info["candidates"] = {k: g.size for k, g in cand.groups.items()}
         info["n_elements"] = cand.n_elements
+        info["listed"] = opts.locations is not None
     return Diagnosis(current, effects, J0, J, model, placed0.frf, sigma2, steps, info,
                      applied=tuple(accepted))
 

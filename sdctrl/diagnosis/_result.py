@@ -355,6 +355,11 @@ class Diagnosis:
                   ""]
         if self.built:
             lines += [f"Model used: {self.built}.", ""]
+        if self.scanned:
+            how = ("the caller's list" if self.info.get("listed") else
+                   "every element and node, and unconnected pairs within reach")
+            lines += ["Physical locations scanned (" + how + "): " + ", ".join(
+                f"{n} {k}" for k, n in self.scanned.items()) + ".", ""]
         if self.effects:
             lines += ["## Effects added", "", self.table(), ""]
         else:
