@@ -51,6 +51,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.chisquare import chi2_isf
+from sdctrl._lib.triangular import solve_upper
 from sdctrl.identification._residues import basis_derivatives, stack
 
 __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
@@ -286,14 +288,12 @@ class NoiseTest:
         -------
         ndarray, shape (...)
         """
-        from scipy.special import chdtri     # chi2.isf, without importing scipy.stats
-
         npp = self.prob.npp
         s1 = np.sum(s, axis=-1)
         s2 = np.maximum(np.sum(s * s, axis=-1), 1e-300)
         g = s2 / np.maximum(s1, 1e-300)
         h = np.maximum(npp * s1 * s1 / s2, 1e-3)
-        return self.signif * g * chdtri(h, 1e-3 / max(self.nf, 1))
+        return self.signif * g * chi2_isf(h, 1e-3 / max(self.nf, 1))
 
     def significance(self, n: int, ev, side=None) -> np.ndarray:
         """Cost increase when each pole is removed, over its noise threshold (>1 keeps).
@@ -316,8 +316,6 @@ class NoiseTest:
         -------
         ndarray, shape (n,)
         """
-        import scipy.linalg as sla
-
         prob = self.prob
         npp = prob.npp
         nf = self.nf
@@ -326,10 +324,10 @@ class NoiseTest:
         # columns S orthogonal to the others is B = Q R^-T[:, S] M_SS^-1 (M = R^-1 R^-T),
         # B^T B = M_SS^-1, and removing j raises the cost by tr(C_S^T M_SS^-1 C_S) and
         # the residual by B C_S (C: coefficients of the scaled columns)
-        Rinv = sla.solve_triangular(lsq.Rr, np.eye(lsq.Rr.shape[0]), check_finite=False)
+        Rinv = solve_upper(lsq.Rr, np.eye(lsq.Rr.shape[0]))
         W = lsq.Q @ Rinv.T
         M = Rinv @ Rinv.T
-        Cs = sla.solve_triangular(lsq.Rr, lsq.Q.T @ prob.Y, check_finite=False)
+        Cs = solve_upper(lsq.Rr, lsq.Q.T @ prob.Y)
         sig2 = self.field(ev)
         out = np.zeros(n, bool) if side is None else np.asarray(side) != 0
         sig2s = self.field(ev, smooth=True) if np.any(out) else sig2

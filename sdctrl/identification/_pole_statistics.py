@@ -76,8 +76,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
+from sdctrl._lib.triangular import solve_upper
 from sdctrl._lib.validate import QUANTITY_POWER
 from sdctrl.identification._noise import running_median
 from sdctrl.identification._residues import LSQ, basis, stack
@@ -173,7 +173,7 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     if 2 * nf * m <= q * m + 2 * n:
         return None
     lsq = LSQ(Phi)
-    Pinv = sla.solve_triangular(lsq.Rr, lsq.Q.T, check_finite=False) / lsq.scale[:, None]
+    Pinv = solve_upper(lsq.Rr, lsq.Q.T) / lsq.scale[:, None]
     H = data.H.reshape(nf, m)
     C = Pinv @ stack(H)                                               # (q, m)
     npp = 2 if model == "complex" else 1

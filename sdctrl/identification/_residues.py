@@ -22,7 +22,8 @@ Internal module: the functions trust their inputs (validated by ``identify``).
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
+
+from sdctrl._lib.triangular import solve_upper
 
 __all__ = [
     "basis",
@@ -218,7 +219,7 @@ class LSQ:
         scale[scale == 0] = 1.0
         self.scale = scale
         self.nf = Phi.shape[0]
-        self.Q, self.Rr = sla.qr(A / scale, mode="economic", check_finite=False)
+        self.Q, self.Rr = np.linalg.qr(A / scale)
         d = np.abs(np.diag(self.Rr))
         self.rcond = float(d.min() / d.max()) if d.size else 1.0
 
@@ -230,7 +231,7 @@ class LSQ:
         return self.Q.T @ H
 
     def coefficients(self, QtY: np.ndarray) -> np.ndarray:
-        C = sla.solve_triangular(self.Rr, QtY, check_finite=False)
+        C = solve_upper(self.Rr, QtY)
         return C / self.scale[:, None]
 
 
