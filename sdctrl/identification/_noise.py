@@ -83,18 +83,21 @@ def running_median(X: np.ndarray, win: int) -> np.ndarray:
     win = int(min(win, nf))
     half = win // 2
     step = max(1, win // 8)
+    # lines last (contiguous windows): (k, nf + win - 1), edges held
     Xp = np.concatenate([np.repeat(X[:1], half, axis=0), X,
-                         np.repeat(X[-1:], win - 1 - half, axis=0)])
+                         np.repeat(X[-1:], win - 1 - half, axis=0)]).T.copy()
     centres = np.unique(np.append(np.arange(0, nf, step), nf - 1))
-    view = np.lib.stride_tricks.sliding_window_view(Xp, win, axis=0)   # (nf, k, win)
-    # median by one partition (np.median's own path is several times slower here and
-    # gives the same numbers: the middle element, or the mean of the two middle ones)
+    view = np.lib.stride_tricks.sliding_window_view(Xp, win, axis=1)   # (k, nf, win)
+    # median of the sorted windows: the middle element, or the mean of the two middle
+    # ones (the numbers of np.median and np.partition; numpy's vectorised sort of short
+    # contiguous rows is several times faster than either here)
     h = win // 2
+    srt = view[:, centres]                                              # (k, nc, win)
+    srt.sort(axis=-1)
     if win % 2:
-        med = np.partition(view[centres], h, axis=-1)[..., h]            # (nc, k)
+        med = srt[..., h].T                                             # (nc, k)
     else:
-        part = np.partition(view[centres], [h - 1, h], axis=-1)
-        med = np.mean(part[..., h - 1:h + 1], axis=-1)
+        med = 0.5 * (srt[..., h - 1] + srt[..., h]).T
     if centres.size == nf:
         return med
     t = np.arange(nf)
