@@ -106,7 +106,8 @@ def running_median(X: np.ndarray, win: int) -> np.ndarray:
     return (1 - a) * med[j] + a * med[j + 1]
 
 
-def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False) -> np.ndarray:
+def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
+                direct: np.ndarray | None = None) -> np.ndarray:
     """Heteroscedastic noise variance ``E[r_re^2 + r_im^2]`` per line and data column.
 
     Two robust local estimates (running medians over ``win`` lines of the residual ``r``
@@ -134,6 +135,8 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False) -> np.ndarray
     smooth : bool
         Also estimate the levels from second differences and keep the lower field (the
         noise seen by out-of-band poles; module notes).
+    direct : ndarray, shape (nf, k), optional
+        The field without ``smooth`` of the same arguments, when already computed.
 
     Returns
     -------
@@ -145,7 +148,7 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False) -> np.ndarray
     e = (r[:nf] ** 2 + r[nf:] ** 2) / np.maximum(1.0 - lev, 0.05)[:, None]
     shape = shape if shape is not None else Yfit[:nf] ** 2 + Yfit[nf:] ** 2
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
-    field = _level(e, shape, tiny, win)
+    field = _level(e, shape, tiny, win) if direct is None else direct
     if smooth and nf >= 8:
         # the same from second differences of the residual along the lines: equal for
         # noise independent from line to line, far below for a residual smooth in
@@ -247,7 +250,7 @@ class NoiseTest:
         if key not in ev:
             r = ev["r"]
             ev[key] = noise_field(r, self.prob.Y - r, ev["lsq"].Q, self.shape, self.win,
-                                  smooth)
+                                  smooth, ev.get("sig2") if smooth else None)
         return ev[key]
 
     def independent(self, ev) -> bool:
