@@ -180,7 +180,10 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     G = stack(_basis_derivative(lam, s, k, model).reshape(nf, -1))    # (2nf, 2n npp)
     Gp = G - lsq.Q @ (lsq.Q.T @ G)                                   # P_perp dPhi/dtheta
     Cp = C[(np.arange(2 * n) // 2)[:, None] * npp + np.arange(npp)]  # (2n, npp, m)
-    B = np.matmul(Gp.reshape(2 * nf, 2 * n, 1, npp), Cp[None])[:, :, 0, :]   # P_perp D_c
+    # P_perp D_c of every channel, pole-major (2n, m, 2nf): contiguous in the lines
+    Bq = np.matmul(Cp.transpose(0, 2, 1),
+                   np.ascontiguousarray(Gp.reshape(2 * nf, 2 * n, npp).transpose(1, 2, 0)))
+    B = Bq.transpose(2, 0, 1)                                        # (2nf, 2n, m) view
     A = np.einsum("aubv,aubv->ab", (Gp.T @ Gp).reshape(2 * n, npp, 2 * n, npp),
                   np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
     A_inv = np.zeros_like(A) if poles_fixed else _gauss_newton_inverse(A)
@@ -189,14 +192,14 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
         var = np.abs(H) ** 2 * (1.0 - data.coherence.reshape(nf, m)) / n_averages
         noise = "coherence"
     else:
-        r = stack(H) - stack(Phi) @ C
-        var = _residual_variance(r, stack(Phi) @ C, lsq.Q, (Gp, Cp), A_inv, rho)
+        Yfit = stack(Phi) @ C
+        var = _residual_variance(stack(H) - Yfit, Yfit, lsq.Q, (Gp, Cp), A_inv, rho)
         noise = "residual"
     sig = np.sqrt(var if rho is None else _local_mean(var, SMOOTH_LINES))
-    WB = _noise_times(B, sig, rho)                                   # Sigma_c B_c
-    S = A_inv @ np.tensordot(B, WB, axes=([0, 2], [0, 2])) @ A_inv
+    WBq = np.ascontiguousarray(_noise_times(B, sig, rho).transpose(1, 2, 0))   # Sigma_c B_c
+    S = A_inv @ (Bq.reshape(2 * n, -1) @ WBq.reshape(2 * n, -1).T) @ A_inv
     M = np.einsum("pau,aum->mpa", (Pinv @ G).reshape(q, 2 * n, npp), Cp)   # Phi^+ D_c
-    K = (Pinv @ WB.reshape(2 * nf, -1)).reshape(q, 2 * n, m).transpose(2, 0, 1)
+    K = (WBq.reshape(2 * n * m, 2 * nf) @ Pinv.T).reshape(2 * n, m, q).transpose(1, 2, 0)
     WP = _noise_times(np.broadcast_to(Pinv.T[:, :, None], (2 * nf, q, m)), sig, rho)
     V = np.matmul(Pinv, WP.transpose(2, 0, 1))                      # (m, q, q)
     return FitStatistics(S=0.5 * (S + S.T), A_inv=A_inv, M=M, K=K, V=V, model=model,
