@@ -92,6 +92,7 @@ warnings.simplefilter("ignore")
 PRELUDE = """
 import time, warnings
 t0 = time.perf_counter()
+c0 = time.process_time()
 warnings.simplefilter("ignore")
 """
 
@@ -139,11 +140,12 @@ def _m(k):
                          shape=tuple(_d[k + "_shape"])) if k + "_data" in _d else None
 M, K = _m("M"), _m("K")
 """
-REPORT = "\nprint(repr((t1 - t0, t2 - t0)))\n"
+REPORT = "\nprint(repr((t1 - t0, t2 - t0, time.process_time() - c0)))\n"
 
 
-def fresh(name: str, path: str) -> tuple[float, float]:
-    """(import seconds, total seconds) of ``name`` in a new interpreter (data load excluded:
+def fresh(name: str, path: str) -> tuple[float, float, float]:
+    """(import seconds, total seconds, total CPU seconds) of ``name`` in a new interpreter
+    (data load excluded:
     the loader runs before the timed code starts, but in the same process).
 
     The interpreter reads and writes byte-code caches as an installed package has them
@@ -161,13 +163,14 @@ def fresh(name: str, path: str) -> tuple[float, float]:
     return eval(out.strip().splitlines()[-1])
 
 
-def warm(name: str, data: dict) -> float:
-    """Seconds of the call alone in this process (after one untimed call)."""
+def warm(name: str, data: dict) -> tuple[float, float]:
+    """(seconds, CPU seconds) of the call alone in this process (after one untimed call)."""
     ns = dict(data)
     body = CHILD[name]
     exec(body, ns)                               # imports and first-call set-up
+    c = time.process_time()
     exec(body, ns)
-    return ns["t2"] - ns["t1"]
+    return ns["t2"] - ns["t1"], time.process_time() - c
 
 
 # --- the cases --------------------------------------------------------------------------
@@ -214,19 +217,22 @@ def run(title: str, names: tuple, data: dict, runs: int, tmp: str, prime: bool =
             wa[n].append(warm(n, data))
     rows = []
     for n in names:
-        imp, tot = np.median(np.array(fr[n]), axis=0)
-        rows.append((title, n, float(imp), float(tot), float(np.median(wa[n]))))
+        imp, tot, cpu = np.median(np.array(fr[n]), axis=0)
+        w, wc = np.median(np.array(wa[n]), axis=0)
+        rows.append((title, n, float(imp), float(tot), float(cpu), float(w), float(wc)))
     return rows
 
 
 def table(rows: list) -> None:
-    print(f"\n{'case':34s} {'candidate':22s} {'import':>8s} {'fresh':>8s} {'warm':>8s}")
-    for title, n, imp, tot, w in rows:
-        print(f"{title:34s} {n:22s} {imp:8.2f} {tot:8.2f} {w:8.3f}")
-    print("\nratios sdctrl / reference (fresh process, and warm):")
+    print(f"\n{'case':34s} {'candidate':22s} {'import':>7s} {'fresh':>7s} {'CPU':>7s} "
+          f"{'warm':>7s} {'CPU':>7s}")
+    for title, n, imp, tot, cpu, w, wc in rows:
+        print(f"{title:34s} {n:22s} {imp:7.2f} {tot:7.2f} {cpu:7.2f} {w:7.3f} {wc:7.3f}")
+    print("\nratios sdctrl / reference (fresh process, and warm; wall and CPU):")
     for i in range(0, len(rows), 2):
         a, b = rows[i], rows[i + 1]
-        print(f"  {a[0]:34s} fresh {a[3] / b[3]:6.2f}   warm {a[4] / b[4]:6.2f}")
+        print(f"  {a[0]:34s} fresh {a[3] / b[3]:5.2f} (CPU {a[4] / b[4]:5.2f})   "
+              f"warm {a[5] / b[5]:5.2f} (CPU {a[6] / b[6]:5.2f})")
 
 
 def main() -> None:
