@@ -116,6 +116,7 @@ def _strictly_inside(x, lo, hi):
 
 
 def _model(B, g, p):
+    """Value of the quadratic model ``g.p + p.B.p / 2``."""
     return float(g @ p + 0.5 * p @ (B @ p))
 
 
