@@ -442,16 +442,6 @@ def _search_info(sinfo, info, messages):
         messages.append(f"pole search did not converge: {sinfo.get('message', '')}")
 
 
-def _residual_norm2(lsq, Hm, QtY) -> float:
-    """``||H - Phi C||^2`` from the residual itself (``||H||^2 - ||Q^T Y||^2`` cancels:
-    an exact fit would read ``sqrt(eps) = 1e-8`` of relative cost)."""
-    if np.iscomplexobj(Hm):
-        nf = lsq.nf
-        return float(np.sum((Hm.real - lsq.Q[:nf] @ QtY) ** 2)
-                     + np.sum((Hm.imag - lsq.Q[nf:] @ QtY) ** 2))
-    return float(np.sum((Hm - lsq.Q @ QtY) ** 2))
-
-
 def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=0):
     """Residues of the poles on the full data (3.16) and the :class:`ComplexModeModel`."""
     from sdctrl.identification._complex_modes import ComplexModeModel
@@ -465,7 +455,7 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=
     lsq = LSQ(Phi)
     QtY = lsq.project(Hm)
     C = lsq.coefficients(QtY)
-    cost2 = _residual_norm2(lsq, Hm, QtY)
+    cost2 = lsq.residual2(Hm, QtY)        # not ||H||^2 - ||Q^T Y||^2: it cancels
     if lsq.rcond < 1e-12:
         messages.append(f"ill-conditioned pole basis (reciprocal condition {lsq.rcond:.2e}): "
                         "poles too close together or too many asymptotic terms")

@@ -230,6 +230,16 @@ class LSQ:
             return self.Q[:nf].T @ H.real + self.Q[nf:].T @ H.imag
         return self.Q.T @ H
 
+    def residual2(self, H: np.ndarray, QtY: np.ndarray) -> float:
+        """``||Y - Q Q^T Y||^2`` from the residual itself, for ``H`` as in :meth:`project`
+        and ``QtY`` its projection (``||Y||^2 - ||Q^T Y||^2`` cancels: an exact fit would
+        read a relative cost of ``sqrt(eps)``, 1e-8)."""
+        if np.iscomplexobj(H):
+            nf = self.nf
+            return float(np.sum((H.real - self.Q[:nf] @ QtY) ** 2)
+                         + np.sum((H.imag - self.Q[nf:] @ QtY) ** 2))
+        return float(np.sum((H - self.Q @ QtY) ** 2))
+
     def coefficients(self, QtY: np.ndarray) -> np.ndarray:
         C = solve_upper(self.Rr, QtY)
         return C / self.scale[:, None]
