@@ -110,3 +110,26 @@ def test_chi2_quantiles_invariants():
     assert np.all(np.diff(q.ravel()) > 0)                       # grows with df
     # far in the tail of a large df: close to the normal approximation of chi2(1000)
     assert q[1, 2] == pytest.approx(1000 + 4.5648 * math.sqrt(2000), rel=0.02)
+
+
+def test_same_solutions_and_stopping_tests_as_scipy_trf():
+    """On exponential fits with bounds (one active), badly scaled: the solution and the
+    stopping test of least_squares(method="trf", x_scale="jac") with the same tolerances."""
+    from scipy.optimize import least_squares
+
+    t = np.linspace(0.0, 4.0, 40)
+    y = 3.0 * np.exp(-0.7 * t) + 0.02 * np.cos(5 * t)
+
+    def fun(x):
+        e = np.exp(-x[1] * t)
+        return x[0] * 1e3 * e - y, np.column_stack([1e3 * e, -x[0] * 1e3 * t * e])
+
+    for hi1 in (2.0, 0.5):                     # decay rate free, then held at its bound
+        lo, hi = np.array([1e-4, 0.01]), np.array([1e-2, hi1])
+        x0 = np.array([2e-3, 0.2])
+        ref = least_squares(lambda x: fun(x)[0], x0, jac=lambda x: fun(x)[1], bounds=(lo, hi),
+                            method="trf", x_scale="jac", ftol=1e-10, xtol=1e-10, gtol=1e-10)
+        res = bounded_least_squares(fun, x0, lo, hi, ftol=1e-10, xtol=1e-10, gtol=1e-10)
+        np.testing.assert_allclose(res.x, ref.x, rtol=1e-7)
+        assert res.cost == pytest.approx(ref.cost, rel=1e-10)
+        assert res.status == ref.status and abs(res.nfev - ref.nfev) <= 2
