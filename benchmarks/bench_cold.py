@@ -49,6 +49,10 @@ EMA, same run          0.71 s  0.13 s         warm 0.134 s (EMA 0.47 s, 0.087 s)
 sdctrl, ident branch    0.19 s  0.14 s  0.26   load 4.5-5.0, 5 runs, back to back with the
 EMA, same run          0.72 s  0.13 s         row above; CPU: fresh 0.13 s, warm 0.088 s
                                               (EMA 0.49 s, 0.087 s): 0.27
+sdctrl, main 402891d    0.34 s  0.15 s  0.68   load 3.0-3.1, 5 runs (wall ~ CPU here);
+EMA, same run          0.51 s  0.09 s         warm ratio 1.76
+sdctrl, ident branch    0.13 s  0.09 s  0.27   back to back with the row above; warm
+EMA, same run          0.48 s  0.09 s         ratio 1.01 (0.087 s each)
 =====================  ======  ======  =====  =========================================
 
 On a quiet machine main's fresh ratio was 0.69: a fresh ``identify`` imported scipy.linalg,
