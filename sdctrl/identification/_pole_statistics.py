@@ -365,12 +365,31 @@ def _residual_variance(r, Yfit, Q, GC, A_inv, rho=None):
         d2 = np.sum(dr**2, axis=0) / np.maximum(g * (6.0 - 0.5 * np.sum(lev, axis=0)),
                                                 0.3 * g)
         e = np.vstack([d2[:1], d2, d2[-1:]])
-    shape = Yfit[:nf] ** 2 + Yfit[nf:] ** 2
+    return _level(e, Yfit[:nf] ** 2 + Yfit[nf:] ** 2)
+
+
+def _level(e, shape):
+    """``E[r_re^2 + r_im^2]`` per line (nf, m) from the point estimates ``e`` and the fitted
+    ``|H|^2`` (``shape``): the larger of an additive level and a level proportional to
+    ``shape``, each a running median over the lines (divided by ``ln 2``: mean/median of an
+    exponential law).
+
+    A point estimate is a second difference: for noise of variance ``b |H_k|^2`` on line
+    ``k`` its expectation is ``b (|H_(k-1)|^2 + 4 |H_k|^2 + |H_(k+1)|^2) / 6``, not
+    ``b |H_k|^2``, so the proportional level divides it by that stencil of ``shape``.  Beside
+    a peak narrower than the line spacing the two differ several times (the peak line's
+    noise enters its neighbours' estimates): dividing by ``|H_k|^2`` overstated ``b`` around
+    under-resolved modes, and their damping's standard deviation with it (the truss's
+    9.5 Hz mode, 0.04 Hz wide on 0.26 Hz lines: scatter over 50 draws 0.66 of the prediction
+    at 1% noise; 0.74 with the stencil; 0.82 with the true noise variance)."""
+    nf = e.shape[0]
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
     win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
+    pad = np.vstack([shape[:1], shape, shape[-1:]])
+    stencil = (pad[:-2] + 4.0 * pad[1:-1] + pad[2:]) / 6.0
     add = running_median(e, win)
-    mult = running_median(e / (shape + tiny), win) * shape
-    return np.maximum(add, mult) / np.log(2.0)             # E[r_re^2 + r_im^2], mean/median
+    mult = running_median(e / (stencil + tiny), win) * shape
+    return np.maximum(add, mult) / np.log(2.0)
 
 
 def _second_difference_gain(rho) -> float:
