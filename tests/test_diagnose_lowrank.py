@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.diagnosis._candidate_scan import _single, _transfers, setup
-from sdctrl.diagnosis._candidates import _beam_matrices, _pairs, candidate_groups
+from sdctrl.diagnosis._candidate_scan import _own_flexibility, _single, _transfers, setup
+from sdctrl.diagnosis._candidates import Candidates, _beam_matrices, _pairs, candidate_groups
 from sdctrl.diagnosis._finalist_fit import fit_task
-from sdctrl.diagnosis._lowrank import dynamic_stiffness, screen_chunk, woodbury
+from sdctrl.diagnosis._lowrank import StaticTerms, dynamic_stiffness, screen_chunk, woodbury
 from sdctrl.diagnosis._placed_data import place
 
 RTOL = 1e-8
@@ -38,7 +38,7 @@ def scan():
     freq = np.linspace(*s.band, 40)
     placed = place(nm, nm.frf(freq, "acceleration"), None)
     cand = candidate_groups(fe)
-    S = setup(nm, fe, placed, cand)
+    S = setup(nm, fe, placed, Candidates(*cand, kinv={}))
     # dense reference: Psi = K^-1 - T (T^T K T)^+ T^T on every DOF
     T = S.T
     Kt = T.T @ np.asarray(fe.K @ T)
@@ -99,6 +99,37 @@ def test_compact_loads_and_transfers_equal_the_dense_ones(scan, name):
         (g1, g2, g3), (_, psi, Fb) = _single(S, placed, g, c)
         assert _close(Fb, exact) and _close(psi[dof_idx], Fd @ b)
         assert _close(g1, Gyk[c]) and _close(g3, Gku[c]) and _close(g2, dyn + exact)
+
+
+@pytest.mark.parametrize("name", ["pairs", "nodes"])
+def test_own_flexibility_solved_once_and_exact_for_every_steps_model(scan, name,
+                                                                     monkeypatch):
+    """``beta^T Psi beta`` (4.23) of the exact re-screen against the dense ``Psi``: from a
+    fresh cache, then for a second model (fewer shapes: a later step's model differs) that
+    reads the ``b^T K^-1 b`` the first one solved -- exact for both, and nothing solved
+    twice (the cache holds each candidate once)."""
+    fe, nm, placed, cand, _, Psi = scan
+    dof_idx, groups, _ = cand
+    g = groups[name]
+    beta = _dense_beta(fe, g, dof_idx)
+    members = np.arange(0, g.size, max(1, g.size // 9))
+    kinv, solved = {}, []
+    plain = StaticTerms.kinv_quad
+    monkeypatch.setattr(StaticTerms, "kinv_quad",
+                        lambda self, b, k: solved.append(b.shape[1] // k) or plain(self, b, k))
+    small = nm.replace(Omega=nm.Omega[:-3, :-3], Gamma=nm.Gamma[:-3, :-3],
+                       cphi=nm.cphi[:, :-3], phib=nm.phib[:-3], shapes=nm.shapes[:, :-3])
+    for model in (nm, small):
+        S = setup(model, fe, placed, Candidates(*cand, kinv=kinv))
+        T = S.T
+        P = fe.static_response(np.eye(fe.N)) - T @ np.linalg.pinv(T.T @ np.asarray(fe.K @ T)) @ T.T
+        Fd = P[np.ix_(dof_idx, dof_idx)]
+        got = _own_flexibility(S, g, members)
+        for c, x in zip(members, got):
+            assert _close(x, beta[c].T @ Fd @ beta[c])
+        assert sorted(kinv[name]) == members.tolist()
+        assert sum(solved) == members.size                      # the first model's solves
+    assert not np.allclose(Fd, Psi[np.ix_(dof_idx, dof_idx)])       # the models differ
 
 
 def test_kd_tree_pairs_equal_the_brute_force_pairs(scan):

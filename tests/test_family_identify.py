@@ -44,11 +44,15 @@ from sdctrl.updating import logls
 #: 0.31); truss 1% 0.0056 -> 0.0057, truss_high 1% 0.0009 -> 0.0005, plate 1% 0.0008 ->
 #: 0.0003; the ladder 1% 0.0011 -> 0.0019 (seeds 2/3: 0.0007 -> 0.0014, 0.0016 -> 0.0021,
 #: within 1.0-1.7x its floor).  Noise-free data are not weighted (no measurable noise) and
-#: keep their figures (weighted by their curvature, the ladder's went 2e-5 -> 0.0012)
+#: keep their figures (weighted by their curvature, the ladder's went 2e-5 -> 0.0012).
+#: Noise-free ladder 2e-5 -> 7.7e-4 (15 poles) since identification's own trust-region solver
+#: and numpy QR (issue 27): an exact fit's pole pruning is decided by round-off, and main with
+#: scipy's solver gave the same 15-pole figure on 11 of 24 copies perturbed by 1e-14 (this
+#: code on 14 of 24); within the 0.01 asked.
 MEASURED = {
     ("truss", 0.0): (12, 0.0043), ("truss", 0.01): (12, 0.0056),
     ("truss_high", 0.0): (6, 2e-5), ("truss_high", 0.01): (6, 0.0005),
-    ("ladder", 0.0): (12, 2e-5), ("ladder", 0.01): (12, 0.0019),
+    ("ladder", 0.0): (12, 7.7e-4), ("ladder", 0.01): (12, 0.0019),
     ("plate", 0.0): (5, 0.0007), ("plate", 0.01): (5, 0.0003),
     ("cluster", 0.0): (5, 0.0001), ("cluster", 0.01): (5, 0.0299),
 }

@@ -31,11 +31,16 @@ from sdctrl.updating import logls
 #: the identified FRF relative to its level (step 6, ``_proper_terms.fitted_to_frf``), at 1%
 #: (merged state -> now): truss 0.01827 -> 0.00888, cluster 0.9405 -> 0.0310, the others
 #: unchanged (truss_high 0.00228, ladder 0.00253 -> 0.00248 (79.9 Hz kept with 78.4 Hz),
-#: plate 0.00075, recorded higher below); noise-free unchanged.
+#: plate 0.00075, recorded higher below); noise-free unchanged.  Since identification's own
+#: trust-region solver and numpy QR (no scipy on its path, issue 27) the noise-free ladder
+#: ends at 15 poles, 7.71e-4 (the identified figure; before 3.8e-11): which of the two an
+#: exact fit lands on is decided by round-off (the significance test prunes poles against a
+#: noise field of round-off) -- main with scipy's solver gave the 15-pole figure on 11 of 24
+#: copies of the data perturbed by 1e-14, this code on 14; both within the 0.01 asked.
 MEASURED = {
     ("truss", 0.0): 0.004274, ("truss", 0.01): 0.008878,
     ("truss_high", 0.0): 6.844e-08, ("truss_high", 0.01): 0.002806,
-    ("ladder", 0.0): 3.797e-11, ("ladder", 0.01): 0.002484,
+    ("ladder", 0.0): 7.707e-04, ("ladder", 0.01): 0.002484,
     ("plate", 0.0): 0.0006618, ("plate", 0.01): 0.001456,
     ("cluster", 0.0): 7.961e-05, ("cluster", 0.01): 0.03101,
 }

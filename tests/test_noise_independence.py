@@ -8,7 +8,7 @@ the same noise correlated between neighbouring lines as an unrecorded window mak
 import numpy as np
 import pytest
 
-from sdctrl.identification._noise import NoiseTest
+from sdctrl.identification._noise import NoiseTest, running_median
 from sdctrl.identification._residues import stack
 from sdctrl.identification._search import PoleProblem
 
@@ -37,3 +37,24 @@ def _independent(noise, c1, scale=1.0, seed=0):
 def test_independent_noise_passes_and_correlated_noise_does_not(noise, scale):
     assert _independent(noise, 0.0, scale)
     assert not _independent(noise, 0.8, scale)
+
+
+@pytest.mark.parametrize("nf,win,k", [(2000, 100, 3), (300, 41, 2), (333, 41, 4),
+                                      (50, 41, 1), (7, 5, 2), (100, 101, 2)])
+def test_running_median_is_the_median_of_each_window(nf, win, k):
+    """At every evaluated line (each ``win // 8``, and the last) the running median is
+    np.median of the window (edges held) bit for bit; in between, linear interpolation."""
+    X = np.random.default_rng(nf + win).exponential(size=(nf, k))
+    w = min(win, nf)
+    half = w // 2
+    Xp = np.concatenate([np.repeat(X[:1], half, 0), X, np.repeat(X[-1:], w - 1 - half, 0)])
+    ref = np.array([np.median(Xp[i:i + w], axis=0) for i in range(nf)])
+    out = running_median(X, win)
+    centres = np.unique(np.append(np.arange(0, nf, max(1, w // 8)), nf - 1))
+    assert out.shape == X.shape
+    np.testing.assert_array_equal(out[centres], ref[centres])
+    between = np.setdiff1d(np.arange(nf), centres)
+    j = np.searchsorted(centres, between) - 1                 # on the chord of its centres
+    t = ((between - centres[j]) / (centres[j + 1] - centres[j]))[:, None]
+    np.testing.assert_allclose(out[between], (1 - t) * ref[centres[j]] + t * ref[centres[j + 1]],
+                               rtol=1e-14)

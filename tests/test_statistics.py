@@ -72,7 +72,11 @@ def check_calibration(d, f_true, z_true, in_band):
         ratio = emp / pred
         assert np.all((ratio > 0.67) & (ratio < 1.5)), (key, ratio)
         cover = np.mean(np.abs(d[key] - truth) <= 1.96 * d[key + "s"], axis=0)[in_band]
-        assert np.all(cover >= 0.9), (key, cover)
+        # 95% intervals over 50 draws: a mode's coverage is below 0.9 with probability 0.04
+        # and below 0.84 with 0.001 (binomial), so the mean over the modes is held to 0.9 and
+        # each mode to 0.84, as in test_statistics_family (each mode held to 0.9 passed while
+        # the noise level around narrow peaks was overstated: conservative intervals)
+        assert np.mean(cover) >= 0.9 and np.all(cover >= 0.84), (key, cover)
 
 
 @pytest.mark.parametrize("noise", [0.01, 0.05])

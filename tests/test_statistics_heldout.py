@@ -4,12 +4,11 @@ among the family's default members, the scalable lattice plate ``sd.testbeds.lat
 tests/test_statistics_family.py at 1% and 5% noise, 50 draws each.
 
 The test uses the lattice's own resolution (``frf(n=600)``, 0.44 Hz lines).  At the family
-tests' 200 lines (1.3 Hz) the two modes whose half-power bandwidth is 4-8 times below the
-line spacing have a frequency scatter of 0.52-0.56 of the predicted std (conservative, the
-95% intervals cover in every draw): the first-order propagation (3.56) overstates the
-frequency's std of an under-resolved peak as it does its damping's (the family test's
-exception for the damping of under-resolved modes).  At 600 lines every ratio is within
-[0.67, 1.5].
+tests' 200 lines (1.3 Hz) the first mode, whose half-power bandwidth is 8 times below the
+line spacing at the band's first lines, has a frequency scatter of 0.52-0.56 of the
+predicted std (0.57-0.60 since the noise level's stencil, ``_pole_statistics._level``;
+conservative: the 95% intervals cover in 88-92% of the draws, every other ratio 0.73-1.31).
+At 600 lines every ratio is within [0.67, 1.5].
 """
 
 
@@ -27,12 +26,11 @@ Z95 = 1.959964
 @pytest.mark.parametrize("noise", [0.01, 0.05])
 def test_statistics_calibrated_on_a_held_out_structure(noise):
     """Every in-band mode found in every draw; empirical std of frequency and damping within
-    [0.67, 1.5] of the median predicted one (damping of modes narrower than the line
-    spacing within [0.5, 1.5], as in the family test); 95% coverage at least 90% over the
-    modes and 84% for each.
+    [0.67, 1.5] of the median predicted one; 95% coverage at least 90% over the modes and 84%
+    for each.
 
-    Measured: 1% f 0.74-1.07, zeta 0.82-1.13, coverage per mode 0.88-1.0 (0.95 over the
-    modes); 5% f 0.84-1.06, zeta 0.87-1.19, coverage 0.90-1.0 (0.93-0.97).  The first two
+    Measured: 1% f 0.79-1.11, zeta 0.86-1.16, coverage per mode 0.90-1.0 (0.95-0.96 over the
+    modes); 5% f 0.87-1.06, zeta 0.91-1.19, coverage 0.88-1.0 (0.94-0.96).  The first two
     modes are narrower than the line spacing (0.37 and 0.72 of it)."""
     lattice = sd.testbeds.lattice(1000)
     assert lattice.name not in sd.testbeds.family()
@@ -41,11 +39,8 @@ def test_statistics_calibrated_on_a_held_out_structure(noise):
     lam = ref.poles[ref.in_band]
     assert lam.size == 8
     assert np.all(np.isfinite(d["f"])), "a mode was missed in some draw"
-    df = (ref.band[1] - ref.band[0]) / (N_LINES - 1)
-    narrow = 2 * np.abs(lam.real) / (2 * np.pi) < df
     for key, truth in (("f", ref.frequency[ref.in_band]), ("z", ref.damping[ref.in_band])):
         ratio = np.std(d[key], axis=0, ddof=1) / np.median(d[key + "s"], axis=0)
-        low = np.where(narrow, 0.5, 0.67) if key == "z" else 0.67
-        assert np.all((ratio >= low) & (ratio <= 1.5)), (noise, key, np.round(ratio, 2))
+        assert np.all((ratio >= 0.67) & (ratio <= 1.5)), (noise, key, np.round(ratio, 2))
         cover = np.mean(np.abs(d[key] - truth) <= Z95 * d[key + "s"], axis=0)
         assert np.mean(cover) >= 0.9 and np.all(cover >= 0.84), (noise, key, cover)

@@ -189,3 +189,27 @@ def test_check_labels_remembers_the_long_tuples_it_returned():
         check_labels(out[:-1] + (7,), 2000, "dofs", "q")
     conv = check_labels(np.array(labs), 2000, "dofs", "q")
     assert conv == out and {type(x) for x in conv} == {str}
+
+
+def test_checked_label_tuples_remembered_from_any_thread():
+    """The same from a pool of threads (the placement and diagnosis sweeps build models on
+    threads): each tuple comes back equal, a remembered one as is."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from sdctrl._lib.validate import check_labels
+
+    tuples = [tuple(f"n{k}.{i}" for i in range(1500)) for k in range(12)]
+    with ThreadPoolExecutor(4) as pool:
+        outs = list(pool.map(lambda t: check_labels(t, 1500, "dofs", "q"), tuples * 3))
+    for t, out in zip(tuples * 3, outs):
+        assert out == t and check_labels(out, 1500, "dofs", "q") == t
+    last = check_labels(tuples[0], 1500, "dofs", "q")
+    assert check_labels(last, 1500, "dofs", "q") is last
+    with pytest.raises(ValueError, match="1499 labels"):
+        check_labels(last, 1499, "dofs", "q")
+    with pytest.raises(ValueError, match="unique"):
+        check_labels(last[:-1] + (last[0],), 1500, "dofs", "q")
+    with pytest.raises(TypeError, match="strings"):
+        check_labels(last[:-1] + (3,), 1500, "dofs", "q")
+    with pytest.raises(TypeError, match="sequence"):
+        check_labels(set(last), 1500, "dofs", "q")

@@ -28,14 +28,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from sdctrl._lib.parallel import dask_client, map_chunks, share
-from sdctrl.diagnosis._candidates import Group, families
+from sdctrl.diagnosis._candidates import Candidates, Group, families
 from sdctrl.diagnosis._finalist_fit import fit_task
 from sdctrl.diagnosis._global_effects import proposal
-from sdctrl.diagnosis._lowrank import (
-    Resolvent,
-    screen_chunk,
-    static_terms,
-)
+from sdctrl.diagnosis._lowrank import Resolvent, own_flexibility, screen_chunk, static_terms
 
 __all__ = ["Setup", "physical_proposals", "setup"]
 
@@ -85,6 +81,8 @@ class Setup:
         Static corrections of the test's unit loads (and of any load on demand).
     families : list of Family
         The candidate families.
+    kinv : dict
+        ``Candidates.kinv``: the candidates' ``b^T K^-1 b`` solved so far in this diagnosis.
     """
 
     fe: object
@@ -98,6 +96,7 @@ class Setup:
     phid: np.ndarray
     static: object
     families: list
+    kinv: dict
 
 
 def _fe_rows(model, fe):
@@ -114,7 +113,7 @@ def _labels_on(fe, labels):
     return np.array([index.get(str(lab), -1) for lab in labels], int)
 
 
-def setup(model, fe, placed, cand) -> Setup:
+def setup(model, fe, placed, cand: Candidates) -> Setup:
     """Place a normal-mode model with shapes on the FE model for the scan.
 
     Parameters
@@ -125,14 +124,14 @@ def setup(model, fe, placed, cand) -> Setup:
         The FE model.
     placed : Placed
         The data.
-    cand : tuple
-        ``(dof_idx, groups, n_elements)`` from :func:`~.candidates.candidate_groups`.
+    cand : Candidates
+        Where the diagnosis looks.
 
     Returns
     -------
     Setup
     """
-    dof_idx, groups, n_el = cand
+    dof_idx, groups, n_el = cand.dof_idx, cand.groups, cand.n_elements
     rows_fe = _fe_rows(model, fe)
     T = np.zeros((fe.N, model.n))
     T[rows_fe] = model.shapes
@@ -152,7 +151,7 @@ def setup(model, fe, placed, cand) -> Setup:
     node_mass = np.sum(Md[dof_idx][g.idx] * used, axis=1) / np.maximum(used.sum(axis=1), 1)
     fams = families(fe, groups, n_el, modal_b, w[inb], np.diag(model.Gamma)[inb], node_mass)
     return Setup(fe, model, rows_fe, T, res, np.asarray(model.cphi)[placed.rows],
-                 np.asarray(model.phib)[:, placed.cols], dof_idx, phid, st, fams)
+                 np.asarray(model.phib)[:, placed.cols], dof_idx, phid, st, fams, cand.kinv)
 
 
 def _transfers(S, placed, s, group):
@@ -295,17 +294,10 @@ class _Tasks:
 
 
 def _own_flexibility(S, group, members) -> np.ndarray:
-    """Exact ``beta^T Psi beta`` (4.23) of candidates ``members`` of ``group`` (nc, k, k):
-    batches of loads, each from one triangular solve with the FE model's factorisation
-    (:meth:`StaticTerms.own`)."""
-    k, nd = group.rank, S.dof_idx.size
-    out = np.empty((members.size, k, k))
-    per = max(1, EXACT_BATCH // k)
-    for a in range(0, members.size, per):
-        ms = members[a:a + per]
-        beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)     # (nd, nb, k)
-        out[a:a + per] = S.static.own(beta.reshape(nd, -1), k)
-    return out
+    """:func:`~._lowrank.own_flexibility` of candidates ``members`` of ``group``, with the
+    diagnosis's ``b^T K^-1 b`` solved so far (``S.kinv``)."""
+    return own_flexibility(S.static, group, members, S.kinv.setdefault(group.name, {}),
+                           EXACT_BATCH)
 
 
 def _rescreen(S, placed, grids, best, base) -> set:

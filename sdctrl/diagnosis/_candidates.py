@@ -23,7 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Family", "Group", "candidate_groups", "families"]
+from sdctrl.diagnosis._locations import split_locations
+
+__all__ = ["Candidates", "Family", "Group", "candidate_groups", "families"]
 
 #: remaining fraction of an element's axial stiffness on the screen grid (stiffness changes)
 RHO_GRID = np.array([0.03, 0.07, 0.13, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.25, 1.7, 2.5])
@@ -142,6 +144,29 @@ class Family:
         return self.members.size
 
 
+@dataclass(frozen=True, eq=False)
+class Candidates:
+    """Where one diagnosis looks, built once for all its steps (internal).
+
+    Parameters
+    ----------
+    dof_idx : ndarray of int
+        Candidate DOFs.
+    groups : dict of str to Group
+        Load shapes (:func:`~._candidates.candidate_groups`).
+    n_elements : int
+        The first ``n_elements`` pairs are elements.
+    kinv : dict
+        ``{group name: {member: b^T K^-1 b}}``, filled as the steps solve them: a property
+        of the FE model and the load alone, the same for every step's model.
+    """
+
+    dof_idx: np.ndarray
+    groups: dict
+    n_elements: int
+    kinv: dict
+
+
 def _axial_stiffness(fe) -> dict:
     """``EA/L`` of every bar and beam of the assembly, by unordered node-name pair."""
     A = fe.assembly
@@ -157,17 +182,35 @@ def _axial_stiffness(fe) -> dict:
     return out
 
 
-def _node_dofs(fe):
-    """Candidate DOFs (translations of the nodes with coordinates) and their map."""
+def _node_dofs(fe, keep=None):
+    """Candidate DOFs (translations of the nodes with coordinates, of the nodes in ``keep``
+    only when it is given) and their map."""
     index = {lab: i for i, lab in enumerate(fe.dofs)}
     idx, where = [], {}
     for node in fe.nodes:
+        if keep is not None and node not in keep:
+            continue
         for ax in _AXES:
             i = index.get(f"{node}.{ax}")
             if i is not None:
                 where[(node, ax)] = len(idx)
                 idx.append(i)
     return np.asarray(idx, int), where
+
+
+#: elements longer than this many times the median element are not the mesh's scale (a
+#: brace, a suspension link, a dashpot across the structure): the default reach ignores them
+OUTLIER_LENGTH = 4.0
+
+
+def default_reach(lengths) -> float:
+    """1.5 times the longest element of the mesh's own scale: the longest element no longer
+    than :data:`OUTLIER_LENGTH` times the median one (one element across the structure would
+    otherwise make every pair of nodes a candidate); ``inf`` without elements."""
+    L = np.asarray(lengths, float)
+    if not L.size:
+        return np.inf
+    return 1.5 * float(L[L <= OUTLIER_LENGTH * np.median(L)].max())
 
 
 def _pairs(fe, reach):
@@ -184,8 +227,7 @@ def _pairs(fe, reach):
             seen.add(key)
             elems.append((a, b))
     if reach is None:
-        L = [np.linalg.norm(X[a] - X[b]) for a, b in elems]
-        reach = 1.5 * max(L) if L else np.inf
+        reach = default_reach([np.linalg.norm(X[a] - X[b]) for a, b in elems])
     xyz = np.array([X[n] for n in names]).reshape(len(names), -1)
     if not np.isfinite(reach):
         reach = 2.0 * float(np.ptp(xyz, axis=0).max(initial=0.0)) + 1.0
@@ -196,7 +238,7 @@ def _pairs(fe, reach):
     return elems, others
 
 
-def candidate_groups(fe, reach=None):
+def candidate_groups(fe, reach=None, locations=None):
     """Load shapes of the pairs, nodes and DOFs of an FE model.
 
     Parameters
@@ -204,8 +246,12 @@ def candidate_groups(fe, reach=None):
     fe : FEModel
         With node coordinates (``fe.nodes``); elements optional.
     reach : float, optional
-        Largest distance (m) between two unconnected nodes of a pair; default 1.5 times the
-        longest element.
+        Largest distance (m) between two unconnected nodes of a pair; default
+        :func:`default_reach` (1.5 times the longest element of the mesh's scale).
+    locations : tuple, optional
+        The caller's own locations (:func:`~._locations.checked_locations`): node names
+        (masses, resonators on their translations) and node pairs (dampers, stiffness
+        changes; the beam elements among them scaled whole) -- only those are scanned.
 
     Returns
     -------
@@ -217,8 +263,13 @@ def candidate_groups(fe, reach=None):
     n_elements : int
         The first ``n_elements`` pairs are elements.
     """
-    dof_idx, where = _node_dofs(fe)
-    elems, others = _pairs(fe, reach)
+    if locations is None:
+        elems, others = _pairs(fe, reach)
+        listed = keep = None
+    else:
+        elems, others, listed = split_locations(fe, locations)
+        keep = set(listed).union(*map(set, elems + others))
+    dof_idx, where = _node_dofs(fe, keep)
     pairs, pi, pv, n_el = [], [], [], 0
     for i, (a, b) in enumerate(elems + others):
         xa, xb = np.asarray(fe.nodes[a], float), np.asarray(fe.nodes[b], float)
@@ -236,15 +287,18 @@ def candidate_groups(fe, reach=None):
         pv.append(vx + [0.0] * (6 - len(vx)))
         n_el += i < len(elems)
     nodes, ni, nv = [], [], []
-    for node in fe.nodes:
+    for node in fe.nodes if listed is None else listed:
         js = [j for j, ax in enumerate(_AXES) if (node, ax) in where]
         if js:
             nodes.append(node)
             ni.append([where[(node, _AXES[j])] if j in js else 0 for j in range(3)])
             nv.append(np.diag([1.0 if j in js else 0.0 for j in range(3)]))
-    labels = [f"{node}.{ax}" for (node, ax) in where]
-    order = np.array([where[key] for key in where], int)
-    dof_idx, members = _beam_members(fe, dof_idx)
+    mass_nodes = None if listed is None else set(listed)
+    own = [key for key in where if mass_nodes is None or key[0] in mass_nodes]
+    labels = [f"{node}.{ax}" for (node, ax) in own]
+    order = np.array([where[key] for key in own], int)
+    dof_idx, members = _beam_members(
+        fe, dof_idx, None if locations is None else {frozenset(p) for p in elems})
     groups = {
         "pairs": Group("pairs", tuple(pairs), np.array(pi, int).reshape(-1, 6),
                        np.array(pv, float).reshape(-1, 6, 1)),
@@ -258,12 +312,13 @@ def candidate_groups(fe, reach=None):
     return dof_idx, groups, n_el
 
 
-def _beam_members(fe, dof_idx):
+def _beam_members(fe, dof_idx, only=None):
     """``(candidate DOFs, Group or None)``: every beam element as the load ``L`` (its DOFs,
     rotations appended to the candidate DOFs) with ``L L^T = K_e / (EA/L)``, so that a change
     ``dk L L^T`` scales the whole element (axial, bending, torsion: a loss of its modulus or
     section, as :meth:`FEModel.stiffness_parameter` does) and ``dk`` is the change of its
-    stiffness along its axis.  Bars need none: their axial strut is the element."""
+    stiffness along its axis.  Bars need none: their axial strut is the element.  ``only``
+    (a set of node-name pairs): those beams only."""
     if fe.assembly is None or not any(g[0][0] == "beam" for g in fe.assembly.groups):
         return dof_idx, None
     beams = fe.members(kind="beam")
@@ -272,6 +327,8 @@ def _beam_members(fe, dof_idx):
     pos = {int(d): i for i, d in enumerate(dof_idx)}
     extra, locs, idx, val = [], [], [], []
     for pair in beams:
+        if only is not None and frozenset(pair) not in only:
+            continue
         rows, Ke = mats.get(frozenset(pair), (np.zeros(0, int), None))
         kax = ax.get(frozenset(pair), 0.0)
         if rows.size == 0 or not kax > 0:

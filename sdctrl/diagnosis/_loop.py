@@ -18,7 +18,7 @@ import numpy as np
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
 from sdctrl.diagnosis._apply import DelayedModel, apply_effect
-from sdctrl.diagnosis._candidates import candidate_groups
+from sdctrl.diagnosis._candidates import Candidates, candidate_groups
 from sdctrl.diagnosis._effect_statistics import joint_std
 from sdctrl.diagnosis._global_effects import (
     fit_delay,
@@ -28,6 +28,7 @@ from sdctrl.diagnosis._global_effects import (
     leaves_region,
 )
 from sdctrl.diagnosis._joint_fit import pruned, refit
+from sdctrl.diagnosis._locations import checked_locations
 from sdctrl.diagnosis._placed_data import place
 from sdctrl.diagnosis._residual_map import (
     ALPHA,
@@ -58,6 +59,18 @@ N_TRIES = 3
 #: after an effect, the next scan is skipped when even a noise level this share of the
 #: data's noise floor leaves less error than an effect must remove (:func:`_exhausted`)
 NOISE_SHARE = 0.9
+
+
+@dataclass(frozen=True, eq=False)
+class _Settings:
+    """The options of one :func:`diagnose` call, checked."""
+
+    band: tuple | None
+    reach: float | None
+    locations: tuple | None
+    max_effects: int
+    noise: float | None
+    progress: bool | None
 
 
 def _check(model, frf, fe, executor, max_effects, noise, reach):
@@ -180,7 +193,7 @@ def _summary(p) -> dict:
 
 
 def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | None = None,
-             max_effects: int = 4, noise: float | None = None,
+             locations=None, max_effects: int = 4, noise: float | None = None,
              progress: bool | None = None) -> Diagnosis:
     """Trace the residual between a model and measured FRFs to the effects the model lacks.
 
@@ -241,7 +254,14 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
         Band (Hz) of the comparison; default all lines of ``frf``.
     reach : float, optional
         Largest distance (m) between two unconnected nodes scanned as a pair; default 1.5
-        times the longest element.
+        times the longest element, elements longer than 4 times the median one left out
+        (a brace or a damper across the structure is not the mesh's scale).
+    locations : list of str and (str, str), optional
+        Scan only these physical locations (instead of every element, node and pair within
+        ``reach``): node names (a mass change at the node, a resonator on each of its
+        translations) and pairs of node names (a dashpot and a stiffness change between them;
+        a beam element listed is also scaled whole).  The scan then grows with the locations
+        listed, not with the FE model.  Needs ``fe``; not with ``reach``.
     max_effects : int
         At most this many effects are added.
     noise : float, optional
@@ -276,9 +296,10 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     """
     model, built = _on_fe(_checked_model(model), fe)
     physical = _check(model, frf, fe, executor, max_effects, noise, reach)
+    opts = _Settings(band, reach, checked_locations(locations, fe, reach), max_effects, noise,
+                     progress)
     with single_thread():         # small dense kernels: BLAS threads only add contention
-        out = _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress,
-                         physical)
+        out = _run_steps(model, frf, fe, executor, opts, physical)
     return replace(out, built=built) if built else out
 
 
@@ -399,19 +420,21 @@ def _step(current, placed0, fe, cand, executor, progress, physical, H=None):
     return _proposals(inner, placed, Hin, S, executor, progress)
 
 
-def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progress, physical):
+def _run_steps(model, frf, fe, executor, opts: _Settings, physical):
     """The steps of :func:`diagnose` (arguments checked)."""
     t0 = time.perf_counter()
+    noise, progress = opts.noise, opts.progress
     inner0 = model.model if isinstance(model, DelayedModel) else model
-    placed0 = place(inner0, frf, band)
+    placed0 = place(inner0, frf, opts.band)
     H = placed0.response(model)               # the current model's response, computed once
     J0 = J = cost(H, placed0.Hd)
     sigma2 = float(noise) if noise is not None else noise_level(
         complex_residual(H, placed0.Hd))
-    cand = candidate_groups(fe, reach) if physical else None
+    cand = (Candidates(*candidate_groups(fe, opts.reach, opts.locations), kinv={})
+            if physical else None)
     N = placed0.n_entries
     current, accepted, errors, steps, times = model, [], [], [], []
-    for _step_ in range(min(int(max_effects), MAX_STEPS)):
+    for _step_ in range(min(int(opts.max_effects), MAX_STEPS)):
         if J <= ROUNDOFF:
             break
         floor = (min(sigma2, noise_floor(complex_residual(H, placed0.Hd))) if accepted
@@ -448,8 +471,9 @@ def _run_steps(model, frf, fe, executor, band, reach, max_effects, noise, progre
     info = {"time": time.perf_counter() - t0, "step_times": times, "n_entries": N,
             "physical": physical, "band": (float(placed0.freq[0]), float(placed0.freq[-1]))}
     if cand is not None:
-        info["candidates"] = {k: g.size for k, g in cand[1].items()}
-        info["n_elements"] = cand[2]
+        info["candidates"] = {k: g.size for k, g in cand.groups.items()}
+        info["n_elements"] = cand.n_elements
+        info["listed"] = opts.locations is not None
     return Diagnosis(current, effects, J0, J, model, placed0.frf, sigma2, steps, info,
                      applied=tuple(accepted))
 

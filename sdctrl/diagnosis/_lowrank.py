@@ -31,8 +31,8 @@ import scipy.linalg as sla
 
 from sdctrl._lib.threads import single_thread
 
-__all__ = ["Resolvent", "StaticTerms", "dynamic_stiffness", "screen_chunk", "static_terms",
-           "woodbury"]
+__all__ = ["Resolvent", "StaticTerms", "dynamic_stiffness", "own_flexibility", "screen_chunk",
+           "static_terms", "woodbury"]
 
 #: a complex-mode factorisation whose response differs from a direct solve by more than this
 #: (relative) is replaced by direct solves
@@ -219,11 +219,12 @@ class StaticTerms:
         """
         return self.fe.static_response(b) - self.T @ (self.Kt_pinv @ (self.T.T @ b))
 
-    def own(self, beta, k: int) -> np.ndarray:
+    def own(self, beta, k: int, kinv=None) -> np.ndarray:
         """Exact ``b_c^T Psi b_c`` (4.23) of loads given on the candidate DOFs, ``k``
-        columns each: ``b^T K^-1 b`` (one multi-load solve) less the shapes' part
-        ``(T^T b)^T (T^T K T)^+ (T^T b)``, which needs the shapes at the candidate DOFs only
-        (never ``T^T b`` nor ``T (...)`` over all ``N`` DOFs, as :meth:`correction` forms).
+        columns each: ``b^T K^-1 b`` (:meth:`kinv_quad`, one multi-load solve) less the
+        shapes' part ``(T^T b)^T (T^T K T)^+ (T^T b)``, which needs the shapes at the
+        candidate DOFs only (never ``T^T b`` nor ``T (...)`` over all ``N`` DOFs, as
+        :meth:`correction` forms).
 
         Parameters
         ----------
@@ -231,20 +232,39 @@ class StaticTerms:
             Loads on the candidate DOFs.
         k : int
             Columns per load.
+        kinv : ndarray, shape (nc, k, k), optional
+            Their :meth:`kinv_quad` when known (it depends on the FE model only: a
+            diagnosis computes it once per candidate, whatever its steps' models).
 
         Returns
         -------
         ndarray, shape (nc, k, k)
             Symmetric.
         """
+        bkb = self.kinv_quad(beta, k) if kinv is None else kinv
+        m = (self.T[self.dof_idx].T @ beta).reshape(self.T.shape[1], -1, k)     # (n, nc, k)
+        F = bkb - np.einsum("ncp,nm,mcq->cpq", m, self.Kt_pinv, m)
+        return 0.5 * (F + F.transpose(0, 2, 1))
+
+    def kinv_quad(self, beta, k: int) -> np.ndarray:
+        """``b_c^T K^-1 b_c`` (``K^-1``: the FE model's static response, inertia relief
+        included) of loads given on the candidate DOFs, ``k`` columns each: one multi-load
+        solve with the cached factorisation.
+
+        Parameters
+        ----------
+        beta : ndarray, shape (nd, nc * k)
+        k : int
+
+        Returns
+        -------
+        ndarray, shape (nc, k, k)
+        """
         nd = self.dof_idx.size
         b = np.zeros((self.fe.N, beta.shape[1]))
         b[self.dof_idx] = beta
         x = self.fe.static_response(b)[self.dof_idx]
-        m = self.T[self.dof_idx].T @ beta
-        psi = (x - self.T[self.dof_idx] @ (self.Kt_pinv @ m)).reshape(nd, -1, k)
-        F = np.einsum("dcp,dcq->cpq", beta.reshape(nd, -1, k), psi)
-        return 0.5 * (F + F.transpose(0, 2, 1))
+        return np.einsum("dcp,dcq->cpq", beta.reshape(nd, -1, k), x.reshape(nd, -1, k))
 
     def projected(self, group) -> np.ndarray:
         """``b^T Psi_io (Psi_io^T K Psi_io)^+ Psi_io^T b`` of every candidate of ``group``.
@@ -260,6 +280,29 @@ class StaticTerms:
         """
         P = group.project(self.Pd)                                         # (nc, k, nio)
         return np.einsum("cpi,ij,cqj->cpq", P, self.Kio_pinv, P)
+
+
+def own_flexibility(static, group, members, known: dict, batch: int) -> np.ndarray:
+    """Exact ``beta^T Psi beta`` (4.23) of candidates ``members`` of ``group`` (nc, k, k)
+    (:meth:`StaticTerms.own`).  Their ``beta^T K^-1 beta`` depends on the FE model only: it
+    is solved for the members not in ``known`` (``{member: (k, k)}``, filled in place: a
+    diagnosis keeps it for its later steps), ``batch`` load columns per multi-load solve
+    with the FE model's factorisation."""
+    k, nd = group.rank, static.dof_idx.size
+    todo = np.array([c for c in members.tolist() if c not in known], int)
+    per = max(1, batch // k)
+    for a in range(0, todo.size, per):
+        ms = todo[a:a + per]
+        beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)     # (nd, nb, k)
+        for c, q in zip(ms.tolist(), static.kinv_quad(beta.reshape(nd, -1), k)):
+            known[c] = q
+    out = np.empty((members.size, k, k))
+    for a in range(0, members.size, per):
+        ms = members[a:a + per]
+        beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)
+        out[a:a + per] = static.own(beta.reshape(nd, -1), k,
+                                    np.stack([known[int(c)] for c in ms]))
+    return out
 
 
 def _pinv_sym(A, rtol=1e-10):

@@ -256,6 +256,13 @@ class Diagnosis:
     def _repr_markdown_(self) -> str:
         return self.report()
 
+    @property
+    def scanned(self) -> dict[str, int]:
+        """Physical candidate locations scanned, per kind of location: ``"pairs"`` (dampers,
+        stiffness changes), ``"nodes"`` (masses), ``"dofs"`` (resonators) and, with beams,
+        ``"members"``; empty when no physical candidate was scanned."""
+        return dict(self.info.get("candidates", {}))
+
     def residual(self, after: bool = True):
         """Residual analysis of the corrected (or the input) model against the data.
 
@@ -348,6 +355,11 @@ class Diagnosis:
                   ""]
         if self.built:
             lines += [f"Model used: {self.built}.", ""]
+        if self.scanned:
+            how = ("the caller's list" if self.info.get("listed") else
+                   "every element and node, and unconnected pairs within reach")
+            lines += ["Physical locations scanned (" + how + "): " + ", ".join(
+                f"{n} {k}" for k, n in self.scanned.items()) + ".", ""]
         if self.effects:
             lines += ["## Effects added", "", self.table(), ""]
         else:

@@ -131,7 +131,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         Complex-mode parametrisation (3.7), or the real-mode one (3.9) (proportional
         damping, purely imaginary residues) for comparison.
     optimizer : {"varpro", "gradient", "none"}
-        Pole update: variable projection with ``scipy.optimize.least_squares``, the
+        Pole update: variable projection (3.2.1) by a bounded trust-region method (the
+        bounds, scaling and stopping tests of ``scipy.optimize.least_squares``), the
         thesis sign-gradient with per-parameter step halving (3.19), or none (residues
         of the given poles only).
     in_band : array_like of bool, optional
@@ -454,7 +455,7 @@ def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=
     lsq = LSQ(Phi)
     QtY = lsq.project(Hm)
     C = lsq.coefficients(QtY)
-    cost2 = max(normH2 - float(np.sum(QtY**2)), 0.0)
+    cost2 = lsq.residual2(Hm, QtY)        # not ||H||^2 - ||Q^T Y||^2: it cancels
     if lsq.rcond < 1e-12:
         messages.append(f"ill-conditioned pole basis (reciprocal condition {lsq.rcond:.2e}): "
                         "poles too close together or too many asymptotic terms")

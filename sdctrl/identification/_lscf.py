@@ -32,7 +32,8 @@ Internal module: the functions trust their inputs (validated by ``identify``).
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
+
+from sdctrl._lib.triangular import solve_lower
 
 __all__ = ["lscf_poles", "principal_responses", "stable_poles"]
 
@@ -101,7 +102,7 @@ def lscf_poles(freq: np.ndarray, P: np.ndarray, orders) -> list[np.ndarray]:
     T = mom[-1][lag]
     S = mom[1:-1][:, lag]                                      # (r, nmax+1, nmax+1)
     L = np.linalg.cholesky(R + 1e-13 * np.real(R[0, 0]) * np.eye(nmax + 1))
-    Wk = np.stack([sla.solve_triangular(L, So, lower=True, check_finite=False) for So in S])
+    Wk = np.stack([solve_lower(L, So) for So in S])
     # row i of L^-1 S_o only involves rows <= i: order n uses rows 0..n, columns 0..n
     G = np.einsum("oij,oik->ijk", Wk.conj(), Wk)               # (nmax+1, nmax+1, nmax+1)
     C = np.cumsum(G, axis=0)

@@ -76,8 +76,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
+from sdctrl._lib.triangular import solve_upper
 from sdctrl._lib.validate import QUANTITY_POWER
 from sdctrl.identification._noise import running_median
 from sdctrl.identification._residues import LSQ, basis, stack
@@ -173,14 +173,17 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     if 2 * nf * m <= q * m + 2 * n:
         return None
     lsq = LSQ(Phi)
-    Pinv = sla.solve_triangular(lsq.Rr, lsq.Q.T, check_finite=False) / lsq.scale[:, None]
+    Pinv = solve_upper(lsq.Rr, lsq.Q.T) / lsq.scale[:, None]
     H = data.H.reshape(nf, m)
     C = Pinv @ stack(H)                                               # (q, m)
     npp = 2 if model == "complex" else 1
     G = stack(_basis_derivative(lam, s, k, model).reshape(nf, -1))    # (2nf, 2n npp)
     Gp = G - lsq.Q @ (lsq.Q.T @ G)                                   # P_perp dPhi/dtheta
     Cp = C[(np.arange(2 * n) // 2)[:, None] * npp + np.arange(npp)]  # (2n, npp, m)
-    B = np.einsum("iau,aum->iam", Gp.reshape(2 * nf, 2 * n, npp), Cp)   # P_perp D_c
+    # P_perp D_c of every channel, pole-major (2n, m, 2nf): contiguous in the lines
+    Bq = np.matmul(Cp.transpose(0, 2, 1),
+                   np.ascontiguousarray(Gp.reshape(2 * nf, 2 * n, npp).transpose(1, 2, 0)))
+    B = Bq.transpose(2, 0, 1)                                        # (2nf, 2n, m) view
     A = np.einsum("aubv,aubv->ab", (Gp.T @ Gp).reshape(2 * n, npp, 2 * n, npp),
                   np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
     A_inv = np.zeros_like(A) if poles_fixed else _gauss_newton_inverse(A)
@@ -189,16 +192,16 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
         var = np.abs(H) ** 2 * (1.0 - data.coherence.reshape(nf, m)) / n_averages
         noise = "coherence"
     else:
-        r = stack(H) - stack(Phi) @ C
-        var = _residual_variance(r, stack(Phi) @ C, lsq.Q, B, A_inv, rho)
+        Yfit = stack(Phi) @ C
+        var = _residual_variance(stack(H) - Yfit, Yfit, lsq.Q, (Gp, Cp), A_inv, rho)
         noise = "residual"
     sig = np.sqrt(var if rho is None else _local_mean(var, SMOOTH_LINES))
-    WB = _noise_times(B, sig, rho)                                   # Sigma_c B_c
-    S = A_inv @ np.tensordot(B, WB, axes=([0, 2], [0, 2])) @ A_inv
+    WBq = np.ascontiguousarray(_noise_times(B, sig, rho).transpose(1, 2, 0))   # Sigma_c B_c
+    S = A_inv @ (Bq.reshape(2 * n, -1) @ WBq.reshape(2 * n, -1).T) @ A_inv
     M = np.einsum("pau,aum->mpa", (Pinv @ G).reshape(q, 2 * n, npp), Cp)   # Phi^+ D_c
-    K = (Pinv @ WB.reshape(2 * nf, -1)).reshape(q, 2 * n, m).transpose(2, 0, 1)
+    K = (WBq.reshape(2 * n * m, 2 * nf) @ Pinv.T).reshape(2 * n, m, q).transpose(1, 2, 0)
     WP = _noise_times(np.broadcast_to(Pinv.T[:, :, None], (2 * nf, q, m)), sig, rho)
-    V = np.einsum("pi,iqm->mpq", Pinv, WP)
+    V = np.matmul(Pinv, WP.transpose(2, 0, 1))                      # (m, q, q)
     return FitStatistics(S=0.5 * (S + S.T), A_inv=A_inv, M=M, K=K, V=V, model=model,
                          asymptotic=tuple(bool(a) for a in asymptotic), noise=noise)
 
@@ -335,11 +338,12 @@ def _second_difference(X, nf):
     return np.stack([b[:-2] - 2.0 * b[1:-1] + b[2:] for b in blocks])
 
 
-def _residual_variance(r, Yfit, Q, B, A_inv, rho=None):
+def _residual_variance(r, Yfit, Q, GC, A_inv, rho=None):
     """Noise variance per stacked point from the fit residual (module notes).
 
     ``r``, ``Yfit`` (2nf, m) stacked; ``Q`` (2nf, q) the residues' orthonormal basis;
-    ``B`` (2nf, 2n, m) the poles' projected Jacobian, ``A_inv`` its Gauss-Newton inverse.
+    ``GC = (Gp, Cp)``: the poles' projected Jacobian is ``B_c = Gp Cp_c`` per channel
+    (``Gp`` (2nf, 2n npp), ``Cp`` (2n, npp, m)), ``A_inv`` its Gauss-Newton inverse.
     The second difference ``w^T r`` of the residual ``r = (I - P) e`` has the variance
     ``(w^T w - w^T P w) sigma^2`` (``w^T w = 6``): ``w^T P w`` is the leverage of the
     stencil for all fitted parameters (residues, asymptotic terms and poles).
@@ -348,22 +352,44 @@ def _residual_variance(r, Yfit, Q, B, A_inv, rho=None):
     if nf < 5:
         e = (r[:nf] ** 2 + r[nf:] ** 2)
     else:
+        Gp, Cp = GC
+        na, npp, m = Cp.shape
         dr = _second_difference(r, nf)                                  # (2, nf-2, m)
         dQ = _second_difference(Q, nf)                                  # (2, nf-2, q)
-        dB = _second_difference(B, nf)                                  # (2, nf-2, 2n, m)
-        dBA = np.tensordot(dB, A_inv, axes=([2], [0]))                 # (2, nf-2, m, 2n)
-        lev = np.sum(dQ * dQ, axis=2)[..., None] + np.sum(
-            dBA * dB.transpose(0, 1, 3, 2), axis=3)
+        # second differences of B_c = Gp Cp_c, pole by pole: (2n, 2(nf-2) m), contiguous
+        dG = _second_difference(Gp.reshape(2 * nf, na, npp), nf)        # (2, nf-2, 2n, npp)
+        dB = np.matmul(dG.transpose(2, 0, 1, 3).reshape(na, -1, npp), Cp).reshape(na, -1)
+        quad = np.sum((A_inv.T @ dB) * dB, axis=0).reshape(2, nf - 2, m)
+        lev = np.sum(dQ * dQ, axis=2)[..., None] + quad
         g = 1.0 if rho is None else _second_difference_gain(rho) / 6.0
         d2 = np.sum(dr**2, axis=0) / np.maximum(g * (6.0 - 0.5 * np.sum(lev, axis=0)),
                                                 0.3 * g)
         e = np.vstack([d2[:1], d2, d2[-1:]])
-    shape = Yfit[:nf] ** 2 + Yfit[nf:] ** 2
+    return _level(e, Yfit[:nf] ** 2 + Yfit[nf:] ** 2)
+
+
+def _level(e, shape):
+    """``E[r_re^2 + r_im^2]`` per line (nf, m) from the point estimates ``e`` and the fitted
+    ``|H|^2`` (``shape``): the larger of an additive level and a level proportional to
+    ``shape``, each a running median over the lines (divided by ``ln 2``: mean/median of an
+    exponential law).
+
+    A point estimate is a second difference: for noise of variance ``b |H_k|^2`` on line
+    ``k`` its expectation is ``b (|H_(k-1)|^2 + 4 |H_k|^2 + |H_(k+1)|^2) / 6``, not
+    ``b |H_k|^2``, so the proportional level divides it by that stencil of ``shape``.  Beside
+    a peak narrower than the line spacing the two differ several times (the peak line's
+    noise enters its neighbours' estimates): dividing by ``|H_k|^2`` overstated ``b`` around
+    under-resolved modes, and their damping's standard deviation with it (the truss's
+    9.5 Hz mode, 0.04 Hz wide on 0.26 Hz lines: scatter over 50 draws 0.66 of the prediction
+    at 1% noise; 0.74 with the stencil; 0.82 with the true noise variance)."""
+    nf = e.shape[0]
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
     win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
+    pad = np.vstack([shape[:1], shape, shape[-1:]])
+    stencil = (pad[:-2] + 4.0 * pad[1:-1] + pad[2:]) / 6.0
     add = running_median(e, win)
-    mult = running_median(e / (shape + tiny), win) * shape
-    return np.maximum(add, mult) / np.log(2.0)             # E[r_re^2 + r_im^2], mean/median
+    mult = running_median(e / (stencil + tiny), win) * shape
+    return np.maximum(add, mult) / np.log(2.0)
 
 
 def _second_difference_gain(rho) -> float:

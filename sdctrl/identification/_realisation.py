@@ -11,7 +11,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg import block_diag
 
 from sdctrl._lib.statespace import correction_filter
 from sdctrl._lib.validate import QUANTITY_POWER, check_finite_result, check_quantity, check_scalar
@@ -78,7 +77,7 @@ def _modal_blocks(cm: ComplexModeModel):
             Cs.append(np.column_stack([C1, C2]))
             Bs.append(np.vstack([B1, B2]))
             states += [f"x{j}_{k}", f"dx{j}_{k}"]
-    A = block_diag(*blocks_A) if blocks_A else np.zeros((0, 0))
+    A = _block_diag(*blocks_A)
     B = np.vstack(Bs) if Bs else np.zeros((0, na))
     C = np.hstack(Cs) if Cs else np.zeros((ns, 0))
     return A, B, C, states
@@ -128,6 +127,17 @@ def _correction_filter(cm: ComplexModeModel, P1, P2, omega_c):
             [f"zc{a}" for a in range(na)] + [f"dzc{a}" for a in range(na)])
 
 
+def _block_diag(*blocks):
+    """Block-diagonal matrix of 2-D real ``blocks`` (``(0, 0)`` for none)."""
+    rows, cols = sum(b.shape[0] for b in blocks), sum(b.shape[1] for b in blocks)
+    out = np.zeros((rows, cols))
+    i = j = 0
+    for b in blocks:
+        out[i:i + b.shape[0], j:j + b.shape[1]] = b
+        i, j = i + b.shape[0], j + b.shape[1]
+    return out
+
+
 def _realisation(cm: ComplexModeModel, kq: int, omega_c: float | None):
     """``A, B, C, D, state names`` of :func:`to_statespace` for output derivative ``kq``."""
     A, B, C, states = _modal_blocks(cm)
@@ -139,7 +149,7 @@ def _realisation(cm: ComplexModeModel, kq: int, omega_c: float | None):
     if P1 is not None or P2 is not None:
         extra.append(_correction_filter(cm, P1, P2, omega_c))
     for Ae, Be, Ce, De, st in extra:
-        A = block_diag(A, Ae)
+        A = _block_diag(A, Ae)
         B = np.vstack([B, Be])
         C = np.hstack([C, Ce])
         D = D + De

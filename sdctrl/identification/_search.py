@@ -11,9 +11,12 @@ poles only, ``J(lambda) = ||(I - P_Phi) Y||^2`` (3.18).  Two optimisers update t
     its own step in the descent direction and its step is halved every time it passes
     over its optimum (sign change of its gradient component).
 ``"varpro"`` (default)
-    Variable projection: the residues are eliminated inside the pole search and
-    ``scipy.optimize.least_squares`` (trust region, bounds) minimises ``J`` over the poles
-    with the Kaufman Jacobian ``-P_perp (dPhi/dtheta) R``.  The Jacobian is passed in a
+    Variable projection: the residues are eliminated inside the pole search and a
+    bounded trust-region method (:func:`sdctrl._lib.trustregion.bounded_least_squares`:
+    interior, reflective, Coleman-Li scaling; the bounds, Jacobian scaling and stopping
+    tests of ``scipy.optimize.least_squares(method="trf", x_scale="jac")``, in numpy so
+    that identification imports no scipy) minimises ``J`` over the poles with the
+    Kaufman Jacobian ``-P_perp (dPhi/dtheta) R``.  The Jacobian is passed in a
     compact form (Cholesky factor of ``[J r]^T [J r]``) of size ``2n+1``, so the cost of an
     iteration does not grow with the number of frequency lines times sensors.
 
@@ -24,6 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.triangular import solve_upper
+from sdctrl._lib.trustregion import bounded_least_squares
 from sdctrl.identification._residues import (
     LSQ,
     basis,
@@ -173,9 +178,7 @@ class SubProblem:
         scale = np.linalg.norm(A, axis=0)
         scale[scale == 0] = 1.0
         if A.shape[1]:
-            import scipy.linalg as sla
-
-            self.Qf = sla.qr(A / scale, mode="economic", check_finite=False)[0]
+            self.Qf = np.linalg.qr(A / scale)[0]
         else:
             self.Qf = np.zeros((A.shape[0], 0))
         self.rf = prob.Y - self.Qf @ (self.Qf.T @ prob.Y)
@@ -202,8 +205,6 @@ class SubProblem:
         dict
             ``"cost"``, ``"r"``, ``"grad"`` and, with ``jac``, ``"JtJ"``.
         """
-        import scipy.linalg as sla
-
         key = (xs.tobytes(), jac)
         if key in self._cache:
             return self._cache[key]
@@ -217,10 +218,10 @@ class SubProblem:
         A = A / scale
         for _ in range(2):                             # block Gram-Schmidt, twice
             A = A - self.Qf @ (self.Qf.T @ A)
-        Qn, Rn = sla.qr(A, mode="economic", check_finite=False)
+        Qn, Rn = np.linalg.qr(A)
         QtY = Qn.T @ self.rf
         r = self.rf - Qn @ QtY
-        Cn = sla.solve_triangular(Rn, QtY, check_finite=False) / scale[:, None]
+        Cn = solve_upper(Rn, QtY) / scale[:, None]
         out = {"cost": float(np.sum(r**2)), "r": r}
         prob.nfev += 1
         if prob.bar is not None:
@@ -261,19 +262,17 @@ def _compact(ev):
 
 
 def _varpro(prob, x0, lo, hi, max_iter, tol):
-    """Variable projection: ``least_squares`` on the compact residual of :func:`_compact`."""
-    from scipy.optimize import least_squares
+    """Variable projection: the bounded trust-region method of
+    :func:`sdctrl._lib.trustregion.bounded_least_squares` on the compact residual of
+    :func:`_compact` (scaled by the Jacobian's column norms; ftol = xtol = gtol = tol)."""
 
     def fun(x):
-        return _compact(prob.evaluate(x, jac=True))[0]
+        return _compact(prob.evaluate(x, jac=True))
 
-    def jac(x, *_):
-        return _compact(prob.evaluate(x, jac=True))[1]
-
-    res = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
-                        ftol=tol, xtol=tol, gtol=tol, max_nfev=max_iter)
-    return res.x, {"status": int(res.status), "nfev": int(res.nfev),
-                   "converged": bool(res.status > 0), "message": str(res.message)}
+    res = bounded_least_squares(fun, x0, lo, hi, ftol=tol, xtol=tol, gtol=tol,
+                                max_nfev=max_iter)
+    return res.x, {"status": res.status, "nfev": res.nfev, "converged": res.status > 0,
+                   "message": res.message}
 
 
 def _gradient(prob, x0, lo, hi, max_iter, tol):
