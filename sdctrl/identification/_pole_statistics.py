@@ -59,15 +59,10 @@ over the lines, ``|r_{i-1} - 2 r_i + r_{i+1}|^2 / 6``: independent noise passes 
 its variance, while the model's own error (modes outside the band that the asymptotic
 terms do not reproduce, smooth over the lines) and the part of the noise the fit absorbs
 (smooth combinations of the basis) do not -- the raw residual counts that error as noise
-and overstated the standard deviations by up to 14 times at 1% noise on the ladder of the
-family (its scatter over 50 noise draws against the prediction: 0.1-0.6 from the raw
-residual, 0.76-1.14 from its second differences).  Then the larger of an additive level and a level proportional to the fitted
-``|H|^2``, each a running median over the lines.
-
-The pole search runs on data compressed to their dominant columns; the statistics are
-those of the full-data fit, which it matches when the compression keeps the signal
-(``info["compression_residual"]`` small).
-
+and overstated the standard deviations up to 14 times (ladder, 1%: scatter 0.1-0.6 of the
+prediction; 0.76-1.14 from second differences); then :func:`_level`.  The pole search runs
+on data compressed to their dominant columns; the statistics are the full-data fit's, which
+it matches when the compression keeps the signal (``info["compression_residual"]`` small).
 Internal module: the functions trust their inputs (validated by the callers).
 """
 
@@ -369,19 +364,12 @@ def _residual_variance(r, Yfit, Q, GC, A_inv, rho=None):
 
 
 def _level(e, shape):
-    """``E[r_re^2 + r_im^2]`` per line (nf, m) from the point estimates ``e`` and the fitted
-    ``|H|^2`` (``shape``): the larger of an additive level and a level proportional to
-    ``shape``, each a running median over the lines (divided by ``ln 2``: mean/median of an
-    exponential law).
-
-    A point estimate is a second difference: for noise of variance ``b |H_k|^2`` on line
-    ``k`` its expectation is ``b (|H_(k-1)|^2 + 4 |H_k|^2 + |H_(k+1)|^2) / 6``, not
-    ``b |H_k|^2``, so the proportional level divides it by that stencil of ``shape``.  Beside
-    a peak narrower than the line spacing the two differ several times (the peak line's
-    noise enters its neighbours' estimates): dividing by ``|H_k|^2`` overstated ``b`` around
-    under-resolved modes, and their damping's standard deviation with it (the truss's
-    9.5 Hz mode, 0.04 Hz wide on 0.26 Hz lines: scatter over 50 draws 0.66 of the prediction
-    at 1% noise; 0.74 with the stencil; 0.82 with the true noise variance)."""
+    """``E[r_re^2 + r_im^2]`` per line (nf, m) from the point estimates ``e`` (second
+    differences) and the fitted ``|H|^2`` (``shape``): the larger of an additive level and a
+    level proportional to the stencil ``(shape_(k-1) + 4 shape_k + shape_(k+1)) / 6`` (what a
+    second difference of noise of variance ``b shape`` estimates: ``shape_k`` alone overstated
+    ``b`` beside peaks narrower than the lines, e.g. the truss's 9.5 Hz damping std, scatter
+    0.66 -> 0.74 of it), each a running median over the lines, divided by ``ln 2``."""
     nf = e.shape[0]
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
     win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
