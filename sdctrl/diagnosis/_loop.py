@@ -397,7 +397,7 @@ def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
     for best in props[:N_TRIES]:
         if not _accepted(best, *errors):
             break
-        if not accepted:       # a lone effect keeps its own fit (a free mode: on its window)
+        if not accepted:               # a lone effect keeps its own fit (fit_free_mode's)
             return _Extension([best], apply_effect(current, best, placed0), rejected)
         fit = refit(model, accepted + [best], placed0, errors[2])
         if not any(leaves_region(q, placed0.omega) for q in fit.props):
