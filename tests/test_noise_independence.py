@@ -58,3 +58,22 @@ def test_running_median_is_the_median_of_each_window(nf, win, k):
     t = ((between - centres[j]) / (centres[j + 1] - centres[j]))[:, None]
     np.testing.assert_allclose(out[between], (1 - t) * ref[centres[j]] + t * ref[centres[j + 1]],
                                rtol=1e-14)
+
+
+
+@pytest.mark.parametrize("nf,win,k", [(2000, 100, 3), (300, 41, 2), (333, 41, 4),
+                                      (50, 41, 1), (7, 5, 2), (100, 101, 2)])
+def test_running_median_inside_the_data_at_the_edges(nf, win, k):
+    """``inside=True``: near an edge the window is shifted to lie inside the data (the
+    statistics' noise level, ``_pole_statistics._level``): np.median of those windows at
+    every evaluated line, and away from the edges the held-edge median."""
+    X = np.random.default_rng(nf + win + 1).exponential(size=(nf, k))
+    w = min(win, nf)
+    half = w // 2
+    ref = np.array([np.median(X[s:s + w], axis=0)
+                    for s in np.clip(np.arange(nf) - half, 0, nf - w)])
+    out = running_median(X, win, inside=True)
+    centres = np.unique(np.append(np.arange(0, nf, max(1, w // 8)), nf - 1))
+    np.testing.assert_array_equal(out[centres], ref[centres])
+    mid = (np.arange(nf) >= half + w) & (np.arange(nf) < nf - 2 * w)
+    np.testing.assert_array_equal(out[mid], running_median(X, win)[mid])

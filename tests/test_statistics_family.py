@@ -100,9 +100,10 @@ def test_statistics_calibrated_on_every_member(name):
     half-power bandwidth 0.04 Hz on 0.26 Hz lines): damping scatter 0.66 of the predicted std
     at 1% noise.  The cause was the noise level: a second difference's expectation is the
     stencil ``(|H_(k-1)|^2 + 4 |H_k|^2 + |H_(k+1)|^2) / 6`` of relative noise, not ``|H_k|^2``
-    (``_pole_statistics._level``); with it the family's ratios are 0.74-1.27 (truss 1%: first
-    mode's damping 0.74, 0.82 with the true noise variance), per-mode coverage 0.86-1.0, and
-    every ratio is held to [0.67, 1.5].
+    (``_pole_statistics._level``): 0.74 (0.82 with the true noise variance); and that mode
+    sits at the band's start, where the running median repeated the edge line: with windows
+    inside the data, 0.89.  The family's ratios are now 0.79-1.28, per-mode coverage
+    0.86-1.0, and every ratio is held to [0.67, 1.5].
     """
     for noise in NOISES:
         ref, d = family_draws(name, noise, seed=1000 * int(100 * noise))

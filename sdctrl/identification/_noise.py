@@ -61,7 +61,7 @@ __all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
 SMOOTH_LAGS = (1,)
 
 
-def running_median(X: np.ndarray, win: int) -> np.ndarray:
+def running_median(X: np.ndarray, win: int, inside: bool = False) -> np.ndarray:
     """Running median over ``win`` lines (axis 0, edges held), per column of ``X`` (nf, k).
 
     Evaluated every ``win // 8`` lines and interpolated linearly in between: the noise
@@ -74,6 +74,9 @@ def running_median(X: np.ndarray, win: int) -> np.ndarray:
         Values per line and column.
     win : int
         Window length in lines (capped at ``nf``).
+    inside : bool
+        Near an edge, the window of ``win`` lines shifted to lie inside the data, instead
+        of the edge line repeated (which makes the median there that one line's value).
 
     Returns
     -------
@@ -83,16 +86,20 @@ def running_median(X: np.ndarray, win: int) -> np.ndarray:
     win = int(min(win, nf))
     half = win // 2
     step = max(1, win // 8)
-    # lines last (contiguous windows): (k, nf + win - 1), edges held
-    Xp = np.concatenate([np.repeat(X[:1], half, axis=0), X,
-                         np.repeat(X[-1:], win - 1 - half, axis=0)]).T.copy()
     centres = np.unique(np.append(np.arange(0, nf, step), nf - 1))
-    view = np.lib.stride_tricks.sliding_window_view(Xp, win, axis=1)   # (k, nf, win)
+    if inside:                    # lines last (contiguous windows): (k, nf - win + 1, win)
+        view = np.lib.stride_tricks.sliding_window_view(X.T.copy(), win, axis=1)
+        starts = np.clip(centres - half, 0, nf - win)
+    else:                         # edges held: (k, nf, win)
+        Xp = np.concatenate([np.repeat(X[:1], half, axis=0), X,
+                             np.repeat(X[-1:], win - 1 - half, axis=0)]).T.copy()
+        view = np.lib.stride_tricks.sliding_window_view(Xp, win, axis=1)
+        starts = centres
     # median of the sorted windows: the middle element, or the mean of the two middle
     # ones (the numbers of np.median and np.partition; numpy's vectorised sort of short
     # contiguous rows is several times faster than either here)
     h = win // 2
-    srt = view[:, centres]                                              # (k, nc, win)
+    srt = view[:, starts]                                               # (k, nc, win)
     srt.sort(axis=-1)
     if win % 2:
         med = srt[..., h].T                                             # (nc, k)

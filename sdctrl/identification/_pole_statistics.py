@@ -369,14 +369,16 @@ def _level(e, shape):
     level proportional to the stencil ``(shape_(k-1) + 4 shape_k + shape_(k+1)) / 6`` (what a
     second difference of noise of variance ``b shape`` estimates: ``shape_k`` alone overstated
     ``b`` beside peaks narrower than the lines, e.g. the truss's 9.5 Hz damping std, scatter
-    0.66 -> 0.74 of it), each a running median over the lines, divided by ``ln 2``."""
+    0.66 -> 0.74 of it), each a running median over the lines, its windows inside the data
+    at the band's edges (the edge line repeated made the level of a mode there one line's
+    estimate: 0.74 -> 0.89; lattice at 200 lines, first mode 0.57 -> 0.92), over ``ln 2``."""
     nf = e.shape[0]
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
     win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
     pad = np.vstack([shape[:1], shape, shape[-1:]])
     stencil = (pad[:-2] + 4.0 * pad[1:-1] + pad[2:]) / 6.0
-    add = running_median(e, win)
-    mult = running_median(e / (stencil + tiny), win) * shape
+    add = running_median(e, win, inside=True)
+    mult = running_median(e / (stencil + tiny), win, inside=True) * shape
     return np.maximum(add, mult) / np.log(2.0)
 
 
