@@ -258,6 +258,11 @@ def _check(name, c, e, tol, noise, clean=None):
 def test_one_effect_on_the_family(name, kind):
     """Issue 23: each effect on each member, noise-free (3%, error / 30) and 1% noise (10%,
     error down to the noise level, truth within 3 std)."""
+    check_one_effect(name, kind)
+
+
+def check_one_effect(name, kind):
+    """The checks of :func:`test_one_effect_on_the_family` on member ``name``."""
     c = case(name, kind)
     clean = diagnosis(name, (c,), max_effects=2)
     _check(name, c, clean.effects[0], 0.03, 0.0)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import pytest
 
-from test_diagnose_family import KINDS, _check, case, diagnosis
+from test_diagnose_family import KINDS, case, check_one_effect, diagnosis
 
 TRUSSES = ("truss", "truss_high")
 
@@ -29,16 +29,8 @@ TRUSSES = ("truss", "truss_high")
 @pytest.mark.parametrize("name", TRUSSES)
 def test_one_effect_on_the_trusses(name, kind):
     """Each effect, noise-free (3%, error / 30) and at 1% noise (10%, the truth within 3
-    std, error down to the noise level)."""
-    c = case(name, kind)
-    clean = diagnosis(name, (c,), max_effects=2)
-    assert clean.effects[0].location == c[1] or kind == "missing_mode"
-    _check(name, c, clean.effects[0], 0.03, 0.0)
-    assert clean.error_after <= clean.error_before / 30
-    d = diagnosis(name, (c,), 0.01, max_effects=2)
-    _check(name, c, d.effects[0], 0.10, 0.01, clean.effects[0])
-    assert d.noise == pytest.approx(1e-4, rel=0.05)
-    assert d.error_after <= 1.1e-4 + clean.error_after
+    std, error down to the noise level): the family test's checks."""
+    check_one_effect(name, kind)
 
 
 #: noise-free relative error of the dashpot when the mass shares its node (N46): locked
