@@ -293,10 +293,10 @@ class _Tasks:
         return {**t, "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku}
 
 
-def _own_flexibility(S, group, members) -> np.ndarray:
-    """:func:`~._lowrank.own_flexibility` of candidates ``members`` of ``group``, with the
-    diagnosis's ``b^T K^-1 b`` solved so far (``S.kinv``)."""
-    return own_flexibility(S.static, group, members, S.kinv.setdefault(group.name, {}),
+def _own_flexibility(S, sub, members) -> np.ndarray:
+    """:func:`~._lowrank.own_flexibility` of the candidates ``sub`` (:func:`_sub` of their
+    group: ``members``), with the diagnosis's ``b^T K^-1 b`` solved so far (``S.kinv``)."""
+    return own_flexibility(S.static, sub, members, S.kinv.setdefault(sub.name, {}),
                            EXACT_BATCH)
 
 
@@ -320,7 +320,8 @@ def _rescreen(S, placed, grids, best, base) -> set:
     for name, ms in by_group.items():
         group = next(f.group for f in S.families if f.group.name == name)
         ms = np.array(sorted(ms), int)
-        delta = _own_flexibility(S, group, ms) - S.static.projected(_sub(group, ms))
+        sub = _sub(group, ms)
+        delta = _own_flexibility(S, sub, ms) - S.static.projected(sub)
         fix[name] = dict(zip(ms.tolist(), delta.astype(np.complex64)))
     done = set()
     for fi, pos in short.items():

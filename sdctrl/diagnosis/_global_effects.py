@@ -283,7 +283,7 @@ def fit_free_mode(placed, H) -> dict | None:
                                       pole=window)
         phr = 1.0 / (placed.s**2 + 2 * zr * wr * placed.s + np.square(wr))  # inf, not an error
         Jr = cost(H + phr[:, None, None] * np.outer(cr, br)[None], placed.Hd)
-        if Jr < J and lo < wr < hi:
+        if Jr < J:
             wm, zm, c, b, J = wr, zr, cr, br, Jr
     ns, na = X1.shape
     fr = float(wm / (2 * np.pi))

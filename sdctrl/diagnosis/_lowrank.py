@@ -219,32 +219,22 @@ class StaticTerms:
         """
         return self.fe.static_response(b) - self.T @ (self.Kt_pinv @ (self.T.T @ b))
 
-    def own(self, beta, k: int, kinv=None) -> np.ndarray:
-        """Exact ``b_c^T Psi b_c`` (4.23) of loads given on the candidate DOFs, ``k``
-        columns each: ``b^T K^-1 b`` (:meth:`kinv_quad`, one multi-load solve) less the
-        shapes' part ``(T^T b)^T (T^T K T)^+ (T^T b)``, which needs the shapes at the
-        candidate DOFs only (never ``T^T b`` nor ``T (...)`` over all ``N`` DOFs, as
-        :meth:`correction` forms).
+    def shapes_part(self, group) -> np.ndarray:
+        """``(T^T b)^T (T^T K T)^+ (T^T b)`` of every candidate of ``group``: the part of
+        ``b^T K^-1 b`` the model's shapes carry, from the shapes at the candidate DOFs only
+        (never ``T^T b`` over all ``N`` DOFs, as :meth:`correction` forms).
 
         Parameters
         ----------
-        beta : ndarray, shape (nd, nc * k)
-            Loads on the candidate DOFs.
-        k : int
-            Columns per load.
-        kinv : ndarray, shape (nc, k, k), optional
-            Their :meth:`kinv_quad` when known (it depends on the FE model only: a
-            diagnosis computes it once per candidate, whatever its steps' models).
+        group : Group
+            Candidates (compact load shapes on the candidate DOFs).
 
         Returns
         -------
         ndarray, shape (nc, k, k)
-            Symmetric.
         """
-        bkb = self.kinv_quad(beta, k) if kinv is None else kinv
-        m = (self.T[self.dof_idx].T @ beta).reshape(self.T.shape[1], -1, k)     # (n, nc, k)
-        F = bkb - np.einsum("ncp,nm,mcq->cpq", m, self.Kt_pinv, m)
-        return 0.5 * (F + F.transpose(0, 2, 1))
+        P = group.project(self.T[self.dof_idx])                            # (nc, k, n)
+        return np.einsum("cpn,nm,cqm->cpq", P, self.Kt_pinv, P)
 
     def kinv_quad(self, beta, k: int) -> np.ndarray:
         """``b_c^T K^-1 b_c`` (``K^-1``: the FE model's static response, inertia relief
@@ -282,27 +272,25 @@ class StaticTerms:
         return np.einsum("cpi,ij,cqj->cpq", P, self.Kio_pinv, P)
 
 
-def own_flexibility(static, group, members, known: dict, batch: int) -> np.ndarray:
-    """Exact ``beta^T Psi beta`` (4.23) of candidates ``members`` of ``group`` (nc, k, k)
-    (:meth:`StaticTerms.own`).  Their ``beta^T K^-1 beta`` depends on the FE model only: it
-    is solved for the members not in ``known`` (``{member: (k, k)}``, filled in place: a
-    diagnosis keeps it for its later steps), ``batch`` load columns per multi-load solve
-    with the FE model's factorisation."""
+def own_flexibility(static, group, keys, known: dict, batch: int) -> np.ndarray:
+    """Exact ``b^T Psi b = b^T K^-1 b - (T^T b)^T (T^T K T)^+ (T^T b)`` (4.23) of the
+    candidates of ``group`` (nc, k, k), symmetric.  Their ``b^T K^-1 b`` depends on the FE
+    model only: it is solved (:meth:`StaticTerms.kinv_quad`, ``batch`` load columns per
+    multi-load solve with the FE model's factorisation) for the candidates whose ``keys``
+    (their indices in the diagnosis's group) are not in ``known`` (``{key: (k, k)}``, filled
+    in place: a diagnosis keeps it for its later steps); the shapes' part needs no solve
+    (:meth:`StaticTerms.shapes_part`)."""
     k, nd = group.rank, static.dof_idx.size
-    todo = np.array([c for c in members.tolist() if c not in known], int)
+    keys = [int(c) for c in keys]
+    todo = [i for i, c in enumerate(keys) if c not in known]
     per = max(1, batch // k)
-    for a in range(0, todo.size, per):
-        ms = todo[a:a + per]
-        beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)     # (nd, nb, k)
-        for c, q in zip(ms.tolist(), static.kinv_quad(beta.reshape(nd, -1), k)):
-            known[c] = q
-    out = np.empty((members.size, k, k))
-    for a in range(0, members.size, per):
-        ms = members[a:a + per]
-        beta = np.stack([group.dense(int(c), nd) for c in ms], axis=1)
-        out[a:a + per] = static.own(beta.reshape(nd, -1), k,
-                                    np.stack([known[int(c)] for c in ms]))
-    return out
+    for a in range(0, len(todo), per):
+        pos = todo[a:a + per]
+        beta = np.stack([group.dense(i, nd) for i in pos], axis=1)          # (nd, nb, k)
+        for i, q in zip(pos, static.kinv_quad(beta.reshape(nd, -1), k)):
+            known[keys[i]] = q
+    F = np.stack([known[c] for c in keys]) - static.shapes_part(group)
+    return 0.5 * (F + F.transpose(0, 2, 1))
 
 
 def _pinv_sym(A, rtol=1e-10):
