@@ -114,6 +114,22 @@ def test_bad_locations_are_refused_and_the_list_is_not_modified():
     assert "scanned (the caller's list): 1 pairs, 1 nodes, 3 dofs" in d.report()
 
 
+@pytest.mark.parametrize("name", ["ladder", "plate"])
+def test_one_pair_listed_alone(name):
+    """Only the planted dashpot's pair listed (no node, so the node families are empty): the
+    dashpot found there with the full scan's size (this crashed in the exact re-screen,
+    which stacked the empty families' static corrections)."""
+    c = case(name, "added_damper", 0)
+    full = diagnosis(name, (c,), max_effects=2)
+    model, data = planted(name, (c,))
+    d = sd.diagnose(model, data, member(name)[1], locations=[c[1]], max_effects=1,
+                    progress=False)
+    assert d.scanned == {"pairs": 1, "nodes": 0, "dofs": 0}
+    e, ref = d.effects[0], full.effects[0]
+    assert (e.kind, e.location) == (ref.kind, ref.location) == ("added_damper", c[1])
+    assert e.parameters["c"] == pytest.approx(ref.parameters["c"], rel=1e-6)
+
+
 def _lengths(fe):
     return np.array([np.linalg.norm(np.subtract(fe.nodes[a], fe.nodes[b]))
                      for a, b in fe.elements])

@@ -314,8 +314,9 @@ def _rescreen(S, placed, grids, best, base) -> set:
         short[fi] = np.sort(np.argsort(c, kind="stable")[:n3])
     by_group = {}
     for fi, pos in short.items():
-        by_group.setdefault(S.families[fi].group.name, set()).update(
-            S.families[fi].members[pos].tolist())
+        if pos.size:                 # (a family without candidates: none listed there)
+            by_group.setdefault(S.families[fi].group.name, set()).update(
+                S.families[fi].members[pos].tolist())
     fix = {}
     for name, ms in by_group.items():
         group = next(f.group for f in S.families if f.group.name == name)
