@@ -187,3 +187,27 @@ def test_a_missing_mode_refitted_with_a_delay_stays_a_mode(noise):
     assert mode["damping"] == pytest.approx(0.02, rel=0.2)
     assert by_kind["delay"].parameters["tau"] == pytest.approx(1e-3, rel=0.03 + 0.07 * bool(noise))
     assert not any(st.get("rejected") for st in d.steps)
+
+
+def test_a_mode_coupled_by_a_later_damping_is_not_pruned():
+    """A free mode, then non-proportional damping fitted on the model with that mode (its
+    ``dGamma`` has the mode's row and column), then a delay: the mode is not taken out by
+    the pruning (the damping's couplings refer to it; taking it out crashed applying a 7 x 7
+    ``dGamma`` to the 6 modes left)."""
+    from sdctrl.diagnosis._joint_fit import corrected, pruned
+
+    data = _broadband_case()
+    placed = place(base(), data)
+    w, z = 2 * np.pi * 31.0, 0.05
+    mode = proposal("missing_mode", 31.0, {"frequency": 31.0, "damping": z,
+                                           "cphi": 1e-3 * np.ones(4), "phib": np.ones(2)},
+                    0.0, 7, FREQ.size, "mode",
+                    {"omega": w, "zeta": z, "c": 1e-3 * np.ones(4), "b": np.ones(2)})
+    with_mode = apply_effect(base(), mode, placed)
+    gamma = fit_nonproportional(placed, with_mode, placed.rows, placed.cols,
+                                placed.response(with_mode))
+    assert gamma is not None and gamma["payload"]["dGamma"].shape == (7, 7)
+    delay = fit_delay(placed, placed.response(apply_effect(with_mode, gamma, placed)))
+    fit = corrected(base(), [mode, gamma, delay], placed)
+    out, dropped = pruned(base(), fit, placed, 1e-6)
+    assert dropped == [] and [p["action"] for p in out.props] == ["mode", "gamma", "delay"]

@@ -201,7 +201,9 @@ def pruned(model, fit, placed, noise):
     together (:func:`refit`) and it is dropped when the error it then removes is not
     significant (the false-alarm test of its acceptance, its own ``k`` parameters and ``m``
     hypotheses, :func:`._residual_map.false_alarm` above ``ALPHA``).  Located physical
-    effects (a dashpot, a mass, ...) and the newest effect are kept as they are.
+    effects (a dashpot, a mass, ...), the newest effect and a free mode that a later
+    non-proportional damping couples (its ``dGamma`` has the mode's row and column) are kept
+    as they are.
 
     Parameters
     ----------
@@ -224,8 +226,9 @@ def pruned(model, fit, placed, noise):
     k = 0
     while k < len(fit.props) - 1:
         p = fit.props[k]
-        if p["action"] not in ("mode", "residual"):
-            k += 1
+        if p["action"] not in ("mode", "residual") or (p["action"] == "mode" and any(
+                q["action"] == "gamma" for q in fit.props[k + 1:])):
+            k += 1                    # (a later non-proportional damping couples the mode)
             continue
         without = refit(model, fit.props[:k] + fit.props[k + 1:], placed, noise)
         if false_alarm(without.J, fit.J, noise, placed.n_entries, p["k"], p["m"]) < ALPHA:
