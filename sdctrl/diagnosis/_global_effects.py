@@ -9,9 +9,11 @@
 - ``missing_mode`` (free): an extra normal mode ``c b^T / (s^2 + 2 zeta w s + w^2)`` (2.15),
   ``c`` and ``b`` real (its observability ``cphi`` at the data sensors and controllability
   ``phib`` at the data actuators, displacement per unit force: only ``c b^T`` is determined,
-  the largest entry of ``phib`` being fixed by the fit); for given ``(w, zeta)`` the residue is the weighted linear
-  least-squares fit of the relative residual (the linearised logLS), made rank one; ``(w,
-  zeta)`` are searched from the peaks of the residual;
+  the largest entry of ``phib`` being fixed by the fit); for given ``(w, zeta)`` the residue
+  is the linear least-squares fit of the relative residual ``(H_d - H) / H_d`` (the logLS
+  linearised about the data), made rank one in that fit's own metric
+  (:mod:`._weighted_rank_one`: near-null channels of a symmetric structure kept near null);
+  ``(w, zeta)`` are searched from the peaks of the residual;
 - ``nonproportional_damping``: the coupling terms ``Gamma_ij`` (rad/s) between close modes
   that a diagonal (proportional) ``Gamma`` lacks (3.3, 5.1.1), by Gauss-Newton on the complex
   logLS residual.  The response is ``H = C Z(s)^-1 B`` (2.15), ``Z = s^2 I + s Gamma +
@@ -30,6 +32,7 @@ from scipy.optimize import minimize, minimize_scalar
 
 from sdctrl.diagnosis._lowrank import Resolvent
 from sdctrl.diagnosis._residual_map import complex_residual, cost
+from sdctrl.diagnosis._weighted_rank_one import rank_one
 
 __all__ = ["fit_delay", "fit_free_mode", "fit_nonproportional", "fit_residual_terms",
            "free_mode_region", "leaves_region", "ls_real", "proposal"]
@@ -215,14 +218,15 @@ def fit_residual_terms(placed, H, fe_flex=None) -> list[dict]:
     return out
 
 
-def _mode_residue(placed, H, e, w, z):
-    """Rank-one real residue of an extra mode at ``(w, zeta)``: (X, proxy cost)."""
+def _mode_residue(placed, e, w, z):
+    """Rank-one real residue of an extra mode at ``(w, zeta)``: (X, proxy cost).  ``e = (H_d
+    - H) / H_d``: the complex logLS residual (3.12) linearised about the data (bounded where
+    the model without the mode has an antiresonance the data lack, unlike ``/ H``)."""
     s = placed.s
     phi = 1.0 / (s**2 + 2 * z * w * s + w**2)
-    A = phi[:, None, None] / H
+    A = phi[:, None, None] / placed.Hd
     X = ls_real(A, e)
-    U, S, Vt = np.linalg.svd(X)
-    X1 = S[0] * np.outer(U[:, 0], Vt[0])
+    X1 = rank_one(X, np.sum(np.abs(A) ** 2, axis=0))
     return X1, float(np.mean(np.abs(e - A * X1) ** 2)), phi
 
 
@@ -253,13 +257,13 @@ def fit_free_mode(placed, H) -> dict | None:
     w = placed.omega
     if w.size < 5:
         return None
-    e = (placed.Hd - H) / H
+    e = (placed.Hd - H) / placed.Hd
     r = complex_residual(H, placed.Hd)
     per_line = np.mean(np.abs(r) ** 2, axis=(1, 2))
     best = None
     for i in _peaks(per_line, N_PEAKS):
         for z in ZETA_GRID:
-            _, c, _ = _mode_residue(placed, H, e, w[i], z)
+            _, c, _ = _mode_residue(placed, e, w[i], z)
             if best is None or c < best[0]:
                 best = (c, w[i], z)
     lo, hi, zlo, zhi = free_mode_region(w)
@@ -268,13 +272,13 @@ def fit_free_mode(placed, H) -> dict | None:
         wx, zx = np.exp(x[0]), np.exp(x[1])
         if not (lo < wx < hi and zlo < zx < zhi):
             return np.inf
-        return _mode_residue(placed, H, e, wx, zx)[1]
+        return _mode_residue(placed, e, wx, zx)[1]
 
     res = minimize(proxy, [np.log(best[1]), np.log(best[2])], method="Nelder-Mead",
                    options={"xatol": 1e-6, "fatol": 1e-12 * max(best[0], 1e-300),
                             "maxfev": 300})
     wm, zm = np.exp(res.x)
-    X1, _, phi = _mode_residue(placed, H, e, wm, zm)
+    X1, _, phi = _mode_residue(placed, e, wm, zm)
     U, S, Vt = np.linalg.svd(X1)
     c, b = U[:, 0] * np.sqrt(S[0]), Vt[0] * np.sqrt(S[0])
     J = cost(H + phi[:, None, None] * np.outer(c, b)[None], placed.Hd)

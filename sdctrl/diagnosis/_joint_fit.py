@@ -39,7 +39,7 @@ from sdctrl.diagnosis._effect_statistics import Evaluator, coordinates, stacked_
 from sdctrl.diagnosis._global_effects import free_mode_region, leaves_region
 from sdctrl.diagnosis._residual_map import ALPHA, complex_residual, cost, false_alarm, log_ratio
 
-__all__ = ["Corrected", "applied", "corrected", "pruned", "refit"]
+__all__ = ["Corrected", "applied", "corrected", "pruned", "refit", "shed_trends"]
 
 #: function evaluations of the joint refit (the Jacobian's not counted)
 MAX_NFEV = 30
@@ -237,6 +237,42 @@ def pruned(model, fit, placed, noise):
         dropped.append(index.pop(k))
         fit = without
     return fit, dropped
+
+
+def shed_trends(model, props, fit, placed, noise):
+    """Earlier free modes that the joint refit with a new effect moved onto their region's
+    edge, taken out: the new effect explains what they stood for (a broadband trend, never
+    a mode), so the effects are refitted without them.
+
+    Parameters
+    ----------
+    model : model
+        The diagnosis's input model.
+    props : list of dict
+        The accepted proposals and the new one (last), as proposed.
+    fit : Corrected
+        Their joint refit (:func:`refit`).
+    placed : Placed
+        The data.
+    noise : float
+        Noise level of the diagnosis.
+
+    Returns
+    -------
+    fit : Corrected
+        ``fit`` itself when no earlier mode left its region, when the new effect is itself
+        a mode that left it, or when a later non-proportional damping couples one of them;
+        else the refit without those modes (from the others' joint refit).
+    shed : list of int
+        Indices (in ``props``) of the modes taken out.
+    """
+    last = len(props) - 1
+    shed = [i for i in range(last) if leaves_region(fit.props[i], placed.omega)]
+    if not shed or leaves_region(fit.props[last], placed.omega) or any(
+            q["action"] == "gamma" for i in shed for q in props[i + 1:]):
+        return fit, []
+    return refit(model, [p for i, p in enumerate(fit.props) if i not in shed], placed,
+                 noise), shed
 
 
 def _kept(model, base, new, placed) -> Corrected:

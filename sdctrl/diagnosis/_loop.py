@@ -27,7 +27,7 @@ from sdctrl.diagnosis._global_effects import (
     fit_residual_terms,
     leaves_region,
 )
-from sdctrl.diagnosis._joint_fit import pruned, refit
+from sdctrl.diagnosis._joint_fit import pruned, refit, shed_trends
 from sdctrl.diagnosis._locations import checked_locations
 from sdctrl.diagnosis._placed_data import place
 from sdctrl.diagnosis._residual_map import (
@@ -399,9 +399,13 @@ def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
             break
         if not accepted:               # a lone effect keeps its own fit (fit_free_mode's)
             return _Extension([best], apply_effect(current, best, placed0), rejected)
-        fit = refit(model, accepted + [best], placed0, errors[2])
+        fit, shed = shed_trends(model, accepted + [best],
+                                refit(model, accepted + [best], placed0, errors[2]), placed0,
+                                errors[2])
         if not any(leaves_region(q, placed0.omega) for q in fit.props):
             fit, dropped = pruned(model, fit, placed0, errors[2])
+            kept = [i for i in range(len(accepted) + 1) if i not in shed]
+            dropped = sorted(shed + [kept[j] for j in dropped])
             return _Extension(fit.props, fit.model, rejected, tuple(dropped), fit.H, fit.J)
         rejected.append({"kind": best["kind"], "location": best["location"],
                          "reason": "its joint refit moved a free mode onto the edge of its "
