@@ -39,6 +39,9 @@ __all__ = ["fit_delay", "fit_free_mode", "fit_nonproportional", "fit_residual_te
 
 #: damping ratios tried at each residual peak when searching an extra mode
 ZETA_GRID = (0.001, 0.003, 0.01, 0.03)
+#: sweeps of an extra mode's weighted rank-one residue (:mod:`._weighted_rank_one`) while its
+#: frequency and damping are searched, and at the frequency and damping found
+SEARCH_SWEEPS, FINAL_SWEEPS = 20, 500
 #: residual peaks tried as the frequency of an extra mode
 N_PEAKS = 3
 #: modes closer than this many half-power bandwidths are coupled by non-proportional damping
@@ -218,15 +221,17 @@ def fit_residual_terms(placed, H, fe_flex=None) -> list[dict]:
     return out
 
 
-def _mode_residue(placed, e, w, z):
+def _mode_residue(placed, e, w, z, sweeps=SEARCH_SWEEPS):
     """Rank-one real residue of an extra mode at ``(w, zeta)``: (X, proxy cost).  ``e = (H_d
     - H) / H_d``: the complex logLS residual (3.12) linearised about the data (bounded where
-    the model without the mode has an antiresonance the data lack, unlike ``/ H``)."""
+    the model without the mode has an antiresonance the data lack, unlike ``/ H``);
+    ``sweeps`` of the weighted rank-one fit (few while ``(w, zeta)`` are searched)."""
     s = placed.s
     phi = 1.0 / (s**2 + 2 * z * w * s + w**2)
     A = phi[:, None, None] / placed.Hd
     X = ls_real(A, e)
-    X1 = rank_one(X, np.sum(np.abs(A) ** 2, axis=0))
+    X1 = rank_one(X, np.sum(np.abs(A) ** 2, axis=0), float(np.sum(np.abs(e - A * X) ** 2)),
+                  sweeps)
     return X1, float(np.mean(np.abs(e - A * X1) ** 2)), phi
 
 
@@ -278,7 +283,7 @@ def fit_free_mode(placed, H) -> dict | None:
                    options={"xatol": 1e-6, "fatol": 1e-12 * max(best[0], 1e-300),
                             "maxfev": 300})
     wm, zm = np.exp(res.x)
-    X1, _, phi = _mode_residue(placed, e, wm, zm)
+    X1, _, phi = _mode_residue(placed, e, wm, zm, FINAL_SWEEPS)
     U, S, Vt = np.linalg.svd(X1)
     c, b = U[:, 0] * np.sqrt(S[0]), Vt[0] * np.sqrt(S[0])
     J = cost(H + phi[:, None, None] * np.outer(c, b)[None], placed.Hd)

@@ -20,12 +20,15 @@ __all__ = ["rank_one"]
 #: at most this many alternating least-squares sweeps of an extra mode's rank-one residue
 #: (:func:`rank_one`; they stop when the weighted misfit no longer decreases)
 SWEEPS = 500
+#: ... when a sweep lowers the proxy cost by less than this share of it
+RTOL = 1e-9
 
 
-def rank_one(X, W, sweeps=SWEEPS):
+def rank_one(X, W, floor=0.0, sweeps=SWEEPS):
     """``c b^T`` minimising ``sum W (X - c b^T)^2``: the rank-one residue closest to the
     per-channel fits ``X`` in the cost's own metric (``W`` each channel's least-squares
-    weight, the proxy cost being ``sum W (x - X)^2`` plus a constant).  The plain SVD
+    weight, the proxy cost being ``sum W (x - X)^2`` plus a constant, ``floor``: the sweeps
+    stop when they lower the proxy cost by less than ``RTOL`` of it).  The plain SVD
     weights every channel alike: a channel that is nearly null (by a structure's symmetry,
     say) is then given a residue far above its own response, and under noise the
     truncation error there dominates the whole cost.  Alternating weighted least squares,
@@ -43,15 +46,16 @@ def rank_one(X, W, sweeps=SWEEPS):
         starts.append((X[:, a_].copy(), X[s_] / X[s_, a_]))
     best = None
     for (c, b), first in itertools.product(starts, "bc"):
-        c, b, F = _alternating(X, W, c, b, sweeps, first)
+        c, b, F = _alternating(X, W, c, b, sweeps, first, floor)
         if best is None or F < best[0]:
             best = (F, c, b)
     return np.outer(best[1], best[2])
 
 
-def _alternating(X, W, c, b, sweeps, first="b"):
+def _alternating(X, W, c, b, sweeps, first="b", floor=0.0):
     """Alternating weighted least squares of ``c b^T`` from ``(c, b)``, ``b`` (or ``c``)
-    updated first, until the weighted misfit no longer decreases: ``(c, b, misfit)``."""
+    updated first, until the weighted misfit plus ``floor`` no longer decreases: ``(c, b,
+    misfit)``."""
     WX, F = W * X, float(np.sum(W * (np.outer(c, b) - X) ** 2))
     for _ in range(sweeps):
         if first == "b":
@@ -59,7 +63,7 @@ def _alternating(X, W, c, b, sweeps, first="b"):
         c = (WX @ b) / np.maximum(W @ b**2, 1e-300)
         b = (c @ WX) / np.maximum(c**2 @ W, 1e-300)
         Fn = float(np.sum(W * (np.outer(c, b) - X) ** 2))
-        if Fn >= (1 - 1e-9) * F:
+        if F - Fn <= RTOL * (Fn + floor):
             return c, b, min(Fn, F)
         F = Fn
     return c, b, F
