@@ -102,7 +102,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       without actuator ``j`` predicts its column through ``with_io`` on the FE DOFs,
       logLS against ``nm``'s column over the band; leave-one-sensor-out when the test has
       one actuator; at most 6 folds); the lowest mean score wins, candidates within 2% of
-      it predict alike and the one closest to ``nm`` at the tested I/O is kept; with one
+      it or not beaten on every fold tie and the one closest to ``nm`` at the tested I/O
+      is kept; with one
       sensor and one actuator, that closest one (:mod:`sdctrl.hybrids._auto`).  The
       choice and its scores are ``construction.residual`` (``representation``,
       ``chosen_by``, ``held_out``, ``loo_scores``, ``nominal_scores``).  The folds reuse
