@@ -60,7 +60,8 @@ def travel(sel, state):
     tuple or None
     """
     w, z, side, _ev, info = state
-    at = np.asarray(info.get("at_bound", np.zeros(w.size, bool)), bool) & (side == 0)
+    at = np.asarray(info.get("at_bound", np.zeros(w.size, bool)), bool) & (side == 0) & \
+        (z <= HEAVY_MAX)                      # heavier: a filler wherever it goes
     todo = [j for j in np.flatnonzero(at) if _place(sel, w[j]) not in sel.travelled]
     if not todo:
         return None
@@ -74,6 +75,8 @@ def travel(sel, state):
         settled = not pinfo["at_bound"][j]
         sel.log.append(("travelled", float(w[j] / (2 * np.pi)), float(z[j]),
                         float(w2[j] / (2 * np.pi)), float(z2[j]), settled))
+        if not settled:                       # back where the full fit left it
+            w2[j], z2[j] = w[j], z[j]
         moved = moved or settled
     return sel._first_fit(w2, z2, side) if moved else None
 
