@@ -34,6 +34,7 @@ from sdctrl._lib.display import markdown_table
 from sdctrl._lib.validate import check_int, check_scalar
 from sdctrl.fe._parameters import Parameter
 from sdctrl.fe._fe_model import check_fe_model
+from sdctrl.updating._basis_growth import Solved, grown
 from sdctrl.updating._fit_floor import FitFloor, basis_limited, fit_floor
 from sdctrl.updating._global_start import StartBox, fit_stages, solve_bounded
 from sdctrl.updating._placed_test import measured_modes, place_test
@@ -263,7 +264,7 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
         Modes of the test used for pairing (default: identified from ``frf``).
     fmax : float, optional
         Highest normal-mode frequency (Hz) of the reduced basis; default 2.5 times the
-        band top.
+        band top, doubled (at most twice) while it limits the fit (``_basis_growth``).
     loads : {"modal", "range"}
         Load shapes of the parameters' static correction modes: the loads ``dX phi`` in
         the retained modes (default), or the range of the parameter matrices.
@@ -301,7 +302,7 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
         raise ValueError(f"strategy must be one of {_STRATEGIES}, got {strategy!r}")
     measured = place_test(fe, frf, band)
     choice, given = damping_choice(fe, damping)
-    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
+    fmax = given_fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
     max_nfev = check_int(max_nfev, "max_nfev", minimum=1, optional=True)
     if fmax is None:
         fmax = FMAX_FACTOR * float(measured.freq[-1])
@@ -327,6 +328,10 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             prob, p = fit_stages(prob, StartBox(lo, hi, scale, nfev_max), strategy, stages, bar)
             fe1, prob1, p, cost_after = _resolve(fe, setup, prob, p,
                                                  (lo, hi, scale, nfev_max), stages, strategy)
+            if given_fmax is None and strategy != "frequencies":
+                g = grown(fe, Solved(setup, fe1, prob1, p, cost_after),
+                          (lo, hi, scale, nfev_max), stages)
+                setup, fe1, prob1, p, cost_after = g.setup, g.fe1, g.prob1, g.p, g.cost
             bar.update()
             after = prob1.pairing(np.zeros(npar)) if modes.n else None
             model = _normal_mode_model(prob1, fe1, measured)
