@@ -53,7 +53,9 @@ MEASURED = {
     ("truss", 0.0): (12, 0.0043), ("truss", 0.01): (12, 0.0056),
     ("truss_high", 0.0): (6, 2e-5), ("truss_high", 0.01): (6, 0.0005),
     ("ladder", 0.0): (12, 7.7e-4), ("ladder", 0.01): (12, 0.0019),
-    ("plate", 0.0): (5, 0.0007), ("plate", 0.01): (5, 0.0003),
+    # the noise-free plate since identify's default zeta_max is 0.25 (was 0.1): 0.0007 -> 4.5e-12
+    # (12 poles; tests/test_identify_damped_modes.py), every other figure unchanged
+    ("plate", 0.0): (5, 4.5e-12), ("plate", 0.01): (5, 0.0003),
     ("cluster", 0.0): (5, 0.0001), ("cluster", 0.01): (5, 0.0299),
 }
 #: members meeting the noise-free target (<= 0.01)

@@ -41,7 +41,9 @@ MEASURED = {
     ("truss", 0.0): 0.004274, ("truss", 0.01): 0.008878,
     ("truss_high", 0.0): 6.844e-08, ("truss_high", 0.01): 0.002806,
     ("ladder", 0.0): 7.707e-04, ("ladder", 0.01): 0.002484,
-    ("plate", 0.0): 0.0006618, ("plate", 0.01): 0.001456,
+    # the noise-free plate since identify's default zeta_max is 0.25: 6.6e-4 -> 4.5e-12
+    # measured, locked at 1e-9 (an exact fit: its last digits are round-off)
+    ("plate", 0.0): 1e-09, ("plate", 0.01): 0.001456,
     ("cluster", 0.0): 7.961e-05, ("cluster", 0.01): 0.03101,
 }
 #: every member but the cluster meets the acceptance bound max(3 x identified, 0.01) since the improper parts

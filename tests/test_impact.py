@@ -222,20 +222,26 @@ def test_real_impact_records():
     np.testing.assert_allclose(a.frequency, b.frequency, rtol=1e-4)
     for f0 in (3669.0, 3689.0, 4128.0, 4164.0, 4392.0):     # the source's strongest peaks
         assert np.min(np.abs(a.frequency - f0)) < 3.0
-    assert a.cost < 0.1                                     # measured: 5.0%
+    # measured: 2.1% (12 modes; 5.0% and 9 modes before a pole pushed to its bound was
+    # searched alone: it settled on the 4167 Hz mode beside 4163 Hz, and the residual scan
+    # then found 3819 and 4101.7 Hz -- the coherence, 0.998, puts the noise near 2%)
+    assert a.cost < 0.03
     # the window's decay rate 1/tau removed from every pole: the same data and coherence
     # without the window's record, identified by the rules of unwindowed data (which add
-    # out-of-band poles while significant against second differences: one at 4540 Hz here;
-    # windowed data keep the direct noise field, their lines being correlated)
+    # out-of-band poles while significant against second differences; windowed data keep
+    # the direct noise field, their lines being correlated)
     raw = sd.identify(sd.FRF(frf.freq, frf.H, quantity="acceleration",
                              coherence=frf.coherence), band=band, progress=False)
     inb, rin = a.in_band, raw.in_band
-    assert a.n == np.sum(inb) == np.sum(rin) == raw.n - 1    # measured: 9 in band
+    assert a.n == np.sum(inb) == np.sum(rin) == 12            # measured: 12 in band
+    assert raw.n - np.sum(rin) <= 1
     np.testing.assert_allclose(a.frequency[inb], raw.frequency[rin], rtol=1e-5)
     # measured: median 1.2% off 1/tau, the two modes nearest the extra pole -16% and +11%
     shift = (a.poles[inb].real - raw.poles[rin].real) * frf.exponential_tau
     assert np.all(np.abs(shift - 1) < 0.2) and np.median(np.abs(shift - 1)) < 0.02
     assert np.all(a.damping > 0) and np.all(a.damping[inb] < raw.damping[rin])
-    # light damping: the window is most of the apparent damping of the 4164 Hz mode
+    # light damping: the window is half the apparent damping of the 4164 Hz mode (measured
+    # 0.49: 1.87e-4 of the structure's, 1.76e-4 the window's)
     j = np.argmin(np.abs(a.frequency - 4164.0))
-    assert raw.damping[np.argmin(np.abs(raw.frequency - 4164.0))] > 2 * a.damping[j]
+    r = raw.damping[np.argmin(np.abs(raw.frequency - 4164.0))]
+    assert (r - a.damping[j]) / r > 0.4

@@ -190,6 +190,28 @@ def test_uff_foreign_files_collocated_at_driving_points(tmp_path):
     assert np.array_equal(back.H[0], [[1 + 1j, 1 + 2j], [2 + 1j, 2 + 2j]])
 
 
+def test_uff_foreign_negative_directions_read_as_positive(tmp_path):
+    """A survey's hammer recorded along -z (direction -3) at the accelerometer's node: the
+    +z reference with the FRF negated, so the driving point is collocated; a response along
+    -y likewise."""
+    import pyuff
+
+    sets = []
+    for (rn, rd), (fn, fd), v in [((5, 3), (5, -3), 1.0), ((6, -2), (5, -3), 2.0),
+                                  ((5, 3), (7, 3), 3.0), ((6, -2), (7, 3), 4.0)]:
+        sets.append(pyuff.prepare_58(
+            binary=1, func_type=4, rsp_node=rn, rsp_dir=rd, ref_node=fn, ref_dir=fd,
+            data=np.full(4, v + 1j), x=np.arange(1.0, 5.0), abscissa_spacing=0,
+            ord_data_type=6, ordinate_spec_data_type=12, orddenom_spec_data_type=13,
+            ver_num=0, load_case_id=0))
+    pyuff.UFF(str(tmp_path / "s.uff")).write_sets(sets, "add")
+    back = sd.read_uff(tmp_path / "s.uff")
+    assert back.sensors == ("N5.z", "N6.y") and back.actuators == ("N5.z", "N7.z")
+    assert back.collocated == ((0, 0),)
+    # sign: one negative direction negates, two cancel
+    assert np.array_equal(back.H[0], [[-(1 + 1j), 3 + 1j], [2 + 1j, -(4 + 1j)]])
+
+
 @pytest.mark.parametrize("binary", [True, False])
 def test_uff_single_line_round_trip_exact(tmp_path, binary):
     frf = sd.FRF([7.123456789012345], [[[1.5 - 2j, 3j]]], sensors=["s"], actuators=["s", "b"],

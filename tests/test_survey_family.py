@@ -224,7 +224,9 @@ def test_normal_modes_with_complex_residual_dynamics(name):
     assert np.abs(cm.frequency[cm.in_band & ~keep]).tolist() == pytest.approx(
         {"truss_high": [], "cluster": [36.978]}[name], abs=0.01)
     nm = _normal_modes(cm, modes=np.flatnonzero(keep))
-    assert nm.properness.residue_error < 0.01                # measured: 0.0017, 0.0035
+    # measured: 0.0017, 0.0035 (one BLAS thread, as the suite runs); the cluster 0.0108 with
+    # two: its four blade modes 0.07 Hz apart make the properness fit sensitive to round-off
+    assert nm.properness.residue_error < 0.015
     rest = ~keep
     z = 2j * np.pi * f.freq + 1 / f.exponential_tau
     residual = frf_array(cm.poles[rest], cm.residues[rest], np.zeros(f.H.shape[1:]), None, z)

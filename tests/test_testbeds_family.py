@@ -71,3 +71,32 @@ def test_the_simulated_test_is_the_exact_response_plus_seeded_noise():
     assert np.array_equal(a.H, b.H) and not np.array_equal(a.H, frf.H)
     rel = np.abs(a.H / frf.H - 1)
     assert 0.005 < np.sqrt(np.mean(rel ** 2)) < 0.015                # 1% relative noise
+
+
+def _small_frame(stiff=1.0):
+    """A structure that is not a family member (a held-out stand-in)."""
+    return sd.testbeds._structures.ladder(rung_stiffness=1.3 * stiff, payload_mass=0.7)
+
+
+def test_a_structure_outside_the_family_has_the_same_interface():
+    """A TestStructure built by a user (any builder, any name -- even one starting with
+    "truss") gives its own models, test and survey: nothing is looked up by name."""
+    lad = sd.testbeds.structure("ladder")
+    st = sd.testbeds.TestStructure(
+        "truss_like_name", "a stiffer, lighter ladder", (12.0, 90.0), lad.sensors,
+        lad.shakers, {"stiff": 0.9}, {"rungs": 1 / 0.9 - 1}, _small_frame,
+        lad.parameter_maker)
+    true, wrong = st.fe(), st.wrong()
+    assert st.fe() is true                                   # cached, immutable
+    np.testing.assert_allclose(true.K.toarray(), _small_frame().K.toarray())
+    np.testing.assert_allclose(wrong.K.toarray(), _small_frame(0.9).K.toarray())
+    f_own, f_family = true.modes(40)[0], lad.fe().modes(40)[0]
+    assert np.max(np.abs(f_own / f_family - 1)) > 0.01     # not the family's ladder
+    frf = st.frf(n=50)
+    ref = true.frf(np.linspace(12, 90, 50), list(st.shakers), list(st.sensors),
+                   "acceleration")
+    np.testing.assert_allclose(frf.H, ref.H, rtol=1e-12)
+    sv = sd.testbeds.survey(st, n_hits=10, noise=0.0, lines=200, averages=1, seed=0)
+    f = np.abs(sv.poles) / (2 * np.pi)
+    inb = (f_own > 12) & (f_own < 90)
+    np.testing.assert_allclose(np.sort(f), f_own[inb], rtol=2e-3)    # its own modes

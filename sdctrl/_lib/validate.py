@@ -101,6 +101,14 @@ def as_array(x, name: str, *, ndim: int | tuple[int, ...] | None = None, dtype=f
     return arr
 
 
+def check_bool(x, name: str) -> bool:
+    """``x`` as a bool; a TypeError naming ``name`` unless it is True or False (numpy
+    bools included)."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {x!r}")
+    return bool(x)
+
+
 def check_scalar(x, name: str, *, positive: bool = False, nonneg: bool = False,
                  optional: bool = False, allow_inf: bool = False, lo: float | None = None,
                  hi: float | None = None) -> float | None:

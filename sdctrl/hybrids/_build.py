@@ -46,6 +46,7 @@ from sdctrl.hybrids._hybrid_records import (
 )
 from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
+from sdctrl.hybrids._measured_residual import measured_appended_w2
 from sdctrl.hybrids._tested_io import TestedIO, keep_tested, realise_residual
 from sdctrl.hybrids._auto import choose_residual, has_tested
 from sdctrl.hybrids._io_checks import placed_io
@@ -101,7 +102,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       without actuator ``j`` predicts its column through ``with_io`` on the FE DOFs,
       logLS against ``nm``'s column over the band; leave-one-sensor-out when the test has
       one actuator; at most 6 folds); the lowest mean score wins, candidates within 2% of
-      it predict alike and the one closest to ``nm`` at the tested I/O is kept; with one
+      it or not beaten on every fold tie and the one closest to ``nm`` at the tested I/O
+      is kept; with one
       sensor and one actuator, that closest one (:mod:`sdctrl.hybrids._auto`).  The
       choice and its scores are ``construction.residual`` (``representation``,
       ``chosen_by``, ``held_out``, ``loo_scores``, ``nominal_scores``).  The folds reuse
@@ -118,7 +120,10 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       over the band -- and the modal masses of the low modes are corrected to the
       identified residual mass ``F`` (a correction carried, like ``E``, by the low modes'
       observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
-      the median measured/FE frequency ratio of the paired modes.  Each of these steps is
+      the median measured/FE frequency ratio of the paired modes, but an appended mode
+      the test measured as residual dynamics (an in-band mode not made normal, paired by
+      its residue's shape) takes the measured frequency
+      (:mod:`sdctrl.hybrids._measured_residual`).  Each of these steps is
       kept only if it brings the model closer to ``nm`` at the tested I/O
       (:func:`sdctrl.hybrids._hybrid_basis.select_residual`; ``construction.residual``).  The kept
       ``E`` is carried by the static correction modes' observabilities (2.22), so that
@@ -304,6 +309,9 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
     poor = _warn_poor(km, mac_pairs, setup.mac_min, fe_idx, f_id, f_fe)
     base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
                        fe_idx[kept], setup.expansion, prior, response)
+    # appended FE modes the test measured as residual dynamics take the measured frequency
+    base.appended_test_w2 = measured_appended_w2(nm, c, phi_fe, f_fe, base.appended_w2,
+                                                 setup.mac_min)
     zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
     pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],
                           test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)

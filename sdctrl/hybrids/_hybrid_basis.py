@@ -267,7 +267,7 @@ def select_residual(nm, kept, base: HybridBasis, c, phib_measured, loads, zeta: 
     scores, best = {}, None
     data = _VariantData(kept_modal, base, c, phib_measured, loads, zeta, w, R_t, Href)
     for name, kap, fit in variants:
-        parts = _variant(data, kap, fit)
+        parts = _variant(data, kap, fit, measured=mode != "fe")
         if len(variants) == 1:
             return parts, {"variant": name, "scores": {}, "kappa": kap}
         model = assemble(kept_modal, parts, c, loads)
@@ -318,12 +318,16 @@ def _weights(Href):
     return 1.0 / np.maximum(np.abs(Href), 1e-300 * np.abs(Href).max()) ** 2
 
 
-def _variant(data: _VariantData, kap: float, fit: str):
-    """Shapes, frequencies, damping and ``E`` of one residual variant (``kappa``, fit)."""
+def _variant(data: _VariantData, kap: float, fit: str, measured: bool = True):
+    """Shapes, frequencies, damping and ``E`` of one residual variant (``kappa``, fit);
+    ``measured``: appended modes the test measured take its frequency (not for ``"fe"``)."""
     kept_modal, base, c, loads, zeta = data.kept_modal, data.base, data.c, data.loads, data.zeta
     w, R_t, Href = data.w, data.R_t, data.Href
     Sl, wl2 = base.low, base.low_w2
     wa2 = base.appended_w2 * kap**2
+    w2_test = getattr(base, "appended_test_w2", None)      # (_measured_residual)
+    if measured and w2_test is not None:
+        wa2 = np.where(np.isnan(w2_test), wa2, w2_test)
     parts = {"measured": (base.expanded, np.diag(kept_modal.Omega), kept_modal.Gamma,
                           data.phib_meas),
              "low": (Sl, wl2), "appended": (base.appended, wa2),

@@ -65,7 +65,7 @@ class IdentificationWarning(UserWarning):
 def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: str = "varpro",
              in_band=None, asymptotic: bool = True, compress_rank: int | None = None,
              max_iter: int | None = None, tol: float = 1e-10, min_bandwidth: float = 0.5,
-             zeta_max: float = 0.1, significance: float = 2.0, seed: int | None = 0,
+             zeta_max: float = 0.25, significance: float = 2.0, seed: int | None = 0,
              progress: bool | None = None):
     """Identify a complex-mode model (3.7) from measured FRFs (thesis 3.2.1).
 
@@ -158,7 +158,12 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         from the noise (3.56) below 0.5, i.e. a damping more than two standard
         deviations above zero (a lightly damped mode well above the noise).
     zeta_max : float
-        In-band poles with a larger damping ratio are rejected as fillers (automatic mode).
+        In-band poles with a larger damping ratio are rejected as fillers, and stable LSCF
+        poles above it are not proposed (automatic mode).  Default 0.25: discrete dampers
+        give real structures modes of 10-20% damping, while the fillers (poles fitted to
+        the residual's trends) end at the search's damping bound, 0.6 (at 0.1 a mode damped
+        10.1% was never proposed and the residual it left pulled the other poles to their
+        bounds, ``tests/test_identify_damped_modes.py``).
     significance : float
         Multiplier of the noise threshold a pole's contribution must exceed to be kept
         (automatic mode); the threshold is the 1e-3/nf quantile of the cost change of a

@@ -3,9 +3,10 @@
 Starting from the initial candidates (:mod:`~sdctrl.identification._initial`: stable
 LSCF poles and peaks of the indicator functions), :class:`AutoSelection` iterates:
 add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification._missed_scan`),
-drop poles that do not converge (pushed to a bound), fit noise (half-power bandwidth below
-a fraction of the line spacing and a damping the data do not determine, 3.56), are in-band
-fillers with very large damping or are not statistically significant
+search alone the in-band poles a fit pushed to their bounds (:mod:`._travel`), drop poles
+that do not converge (pushed to a bound), fit noise (half-power bandwidth below a fraction
+of the line spacing and a damping the data do not determine, 3.56), are in-band fillers
+(large damping, resonance not inside the band) or are not statistically significant
 (:mod:`~sdctrl.identification._noise`), and add out-of-band poles below and above the
 band (held outside by bounds, within a factor 4 of its edges) that absorb modes the
 asymptotic terms ``E``, ``F/s^2`` cannot represent: one per side and pass while they are
@@ -16,16 +17,12 @@ poles are judged against the noise field that excludes residuals smooth in frequ
 too when the data show noise independent between lines, else the direct field.  A
 residual-scan candidate that was rejected is excluded (1.5 lines around it) only until
 the model changes: a close mode hidden while its neighbour was not fitted is proposed
-again.  Both sides
-are tried before the first removal of insignificant poles: the significance test takes
-the residual for noise, and the tail of a mode just outside the band inflates it over
-the whole band (a lightly damped mode at the other end of the
-testbed band looked 0.3-0.8 times the threshold, then 280 times once the mode above the
-band was fitted).  A side's trial is repeated whenever
-the pole set has changed since its last failed trial: on a first fit that still misses
-in-band modes (common with single-reference data, whose indicator functions propose fewer
-candidates), their residual pulls the trial pole to a bound, and the out-of-band mode is
-only found once they are fitted.
+again.  Both sides are tried before the first removal of insignificant poles: the tail of
+a mode just outside the band inflates the residual the significance test takes for noise
+(a lightly damped testbed mode looked 0.3-0.8 times the threshold, then 280 times once the
+mode above the band was fitted).  A side is tried again whenever the pole set has changed
+since its last failed trial (a first fit missing in-band modes pulls the trial pole to a
+bound).
 
 Initial candidates far below the noise threshold (noise peaks of the indicator functions)
 are dropped before the first fit, and isolated insignificant poles are removed together,
@@ -42,6 +39,7 @@ from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._rules import INDEPENDENT, SelectionRules
 from sdctrl.identification._search import OUT_FACTOR, search_poles
+from sdctrl.identification._travel import filler, travel
 from sdctrl.identification._zoom import sole_poles, zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
@@ -99,7 +97,7 @@ class AutoSelection:
         self.tried = []
         self.best = None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
-        self.zoomed = set()                    # in-band pole sets zoomed into
+        self.zoomed, self.travelled = set(), set()   # pole sets zoomed into, places travelled
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -247,7 +245,9 @@ class AutoSelection:
             reasons[j] = (f"noise fitting (half-power bandwidth below {self.min_bw:g} line "
                           "spacing, damping not determined by the data)")
         for j in np.flatnonzero((side == 0) & (z > self.zeta_max)):
-            reasons.setdefault(j, f"filler (damping above {self.zeta_max:g})")
+            if filler(f[j], z[j], self.fband, self.zeta_max):
+                reasons.setdefault(j, f"filler (damping above {self.zeta_max:g}, its "
+                                   "resonance not inside the band)")
         return reasons
 
     def _unresolved(self, w, z, side, ev, reasons):
@@ -426,9 +426,8 @@ class AutoSelection:
         rounds : int
             Maximum number of rounds.
         pending : ndarray of bool, optional
-            Candidates added after the first fit, as new poles fitted alone first (the
-            peaks no LSCF pole explains): a noise peak in the first full search would
-            wander to a bound and cost many evaluations.
+            Candidates added after the first fit, fitted alone first (peaks no LSCF pole
+            explains: a noise peak would wander in the first full search).
 
         Returns
         -------
@@ -454,6 +453,10 @@ class AutoSelection:
             # lines outside it) inflate the residual over the whole band, so insignificant
             # poles are removed only once both sides were tried
             exact = ev["cost"] <= self.noise.floor
+            moved = None if exact else travel(self, state)    # pushed to a bound: alone
+            if moved is not None:
+                state = self.best = moved
+                continue
             pr = self.prune(w, z, side, ev, info,
                             weak=exact or self._sides_tried(side, tried_side))
             if pr is not None:
@@ -478,9 +481,8 @@ class AutoSelection:
         return self._final_prune()
 
     def _final_prune(self):
-        """The best state without poles the last fit pushed to a bound (an out-of-band pole
-        at the band edge would count as an in-band mode), refitted, when the rules ask for
-        it (not for windowed data)."""
+        """The best state without poles pushed to a bound (an out-of-band pole at the edge
+        would count as a mode), refitted, when the rules ask (not for windowed data)."""
         w, z, side, ev, info = self.best
         pr = self.prune(w, z, side, ev, info, weak=False) if self.rules.final_prune else None
         if pr is not None and pr[0].size and np.any(pr[2] == 0):

@@ -92,7 +92,7 @@ class TestStructure:
         -------
         FEModel
         """
-        return _model(self.name, False)
+        return _built(self.builder, ())
 
     def wrong(self):
         """The deliberately wrong FE model (its errors in :attr:`factors`).
@@ -101,7 +101,7 @@ class TestStructure:
         -------
         FEModel
         """
-        return _model(self.name, True)
+        return _built(self.builder, tuple(sorted(self.factors.items())))
 
     def parameters(self, fe=None) -> list:
         """The update parameters (4.15) built on ``fe`` (default: the wrong model).
@@ -146,9 +146,9 @@ class TestStructure:
         n = check_int(n, "n", minimum=2, maximum=20_000)
         noise = check_scalar(noise, "noise", nonneg=True)
         seed = check_seed(seed, "seed")
-        if self.name.startswith("truss"):
+        if self.builder is _truss_builder:
             return testbed_frf(q, (lo, hi), n, noise, seed)
-        frf = _exact(self.name, q, lo, hi, n)
+        frf = _exact(self, q, lo, hi, n)
         if noise > 0:
             from sdctrl.data import FRF
 
@@ -245,14 +245,14 @@ def _table() -> dict:
 
 
 @lru_cache(maxsize=16)
-def _model(name: str, wrong: bool):
-    s = _table()[name]
-    return s.builder(**s.factors) if wrong else s.builder()
+def _built(builder, factors: tuple):
+    """``builder(**factors)``, cached (a structure built alike is built once, in the family
+    or not)."""
+    return builder(**dict(factors))
 
 
 @lru_cache(maxsize=8)
-def _exact(name: str, q: str, lo: float, hi: float, n: int):
-    s = _table()[name]
+def _exact(s: TestStructure, q: str, lo: float, hi: float, n: int):
     fe = s.fe()
     frf = fe.frf(np.linspace(lo, hi, n), list(s.shakers), list(s.sensors), q)
     from sdctrl.data import FRF

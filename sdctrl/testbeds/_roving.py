@@ -158,7 +158,7 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
     seed = check_seed(seed, "seed")
     lines = check_int(lines, "lines", minimum=16, maximum=50_000)
     averages = check_int(averages, "averages", minimum=1, maximum=20)
-    lam, psi, dofs = _complex_modes(st.name)
+    lam, psi, dofs = _modes_of(st.builder)
     f = np.abs(lam) / (2 * np.pi)
     inb = (f > lo) & (f < hi) & (lam.imag > 0)
     if not inb.any():
@@ -179,17 +179,12 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
                   driving_point=dofs[sens[0]])
 
 
-def _complex_modes(name: str):
-    """All ``2N`` complex modes of the true structure: poles (Im > 0 first, then their
-    conjugates), displacement parts ``psi`` (N, 2N) scaled so ``psi_z^T U psi_z = 1``, DOFs
-    (members built alike -- the truss over two bands -- share them)."""
-    from sdctrl.testbeds._family import structure as by_name
-
-    return _modes_of(by_name(name).builder)
-
-
 @lru_cache(maxsize=8)
 def _modes_of(builder):
+    """All ``2N`` complex modes of the true structure ``builder()``: poles (Im > 0 first,
+    then their conjugates), displacement parts ``psi`` (N, 2N) scaled so ``psi_z^T U psi_z
+    = 1``, DOFs (members built alike -- the truss over two bands -- share them; any
+    :class:`TestStructure`, in the family or not, by its builder)."""
     import scipy.linalg as sl
     import scipy.sparse as sp
 

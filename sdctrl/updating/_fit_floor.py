@@ -12,9 +12,11 @@ model-structure error shows.
 
 A final cost well above that floor means the parameters cannot explain the data: a local
 minimum (see the pairing table: MAC after the update), a damping model that misses the
-peak levels, or a model error outside the parameters.  Where the excess lies tells which:
-the fraction of the squared log error within two half-power bandwidths of the test modes
-(the peaks) against the rest.
+peak levels, a model error outside the parameters, or the update's reduced basis (modes to
+``fmax``).  Where the excess lies tells the first three apart: the fraction of the squared
+log error within two half-power bandwidths of the test modes (the peaks) against the rest;
+the basis is tested directly (:func:`basis_limited`: the same parameters, modes to twice
+``fmax``).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FLOOR_FACTOR", "FitFloor", "fit_floor", "noise_floor"]
+__all__ = ["FLOOR_FACTOR", "FitFloor", "basis_limited", "fit_floor", "noise_floor"]
 
 #: a final cost above this many times the noise floor is reported (and warned about)
 FLOOR_FACTOR = 10.0
@@ -142,3 +144,32 @@ def _verdict(cost, floor, ratio, at_peaks) -> str:
              "other values) or a model error the parameters cannot reach (add parameters)")
     return (f"{ratio:.0f}x above the noise floor (logLS {cost:.3g}, floor {floor:.2g} "
             f"estimated from the data): {where}")
+
+
+def basis_limited(fit: FitFloor, cost: float, fmax: float, richer: float) -> FitFloor:
+    """``fit`` with its verdict on the reduced basis: when the same parameters on a basis
+    with modes to ``2 fmax`` give a cost ``richer`` below half the final one, the basis (not
+    the parameters) limits the fit (4.23: the truncated modes' dynamics are missing).
+
+    Parameters
+    ----------
+    fit : FitFloor
+        The verdict of :func:`fit_floor`.
+    cost : float
+        The final cost.
+    fmax : float
+        Highest frequency (Hz) of the normal modes of the update's basis.
+    richer : float
+        The cost of the same parameters with modes to ``2 fmax``.
+
+    Returns
+    -------
+    FitFloor
+    """
+    if not richer < 0.5 * cost:
+        return fit
+    text = (f"{fit.ratio:.0f}x above the noise floor (logLS {cost:.3g}, floor "
+            f"{fit.noise_floor:.2g} estimated from the data): the reduced basis limits the "
+            f"fit -- with normal modes to {2 * fmax:.4g} Hz instead of {fmax:.4g} Hz the same "
+            f"parameters give {richer:.3g}; pass fmax={2 * fmax:.4g} (or more)")
+    return FitFloor(fit.noise_floor, fit.ratio, fit.at_peaks, text)

@@ -1,0 +1,86 @@
+"""Heavily damped in-band modes in the automatic pole selection (3.2.1).
+
+Two rules of :class:`~sdctrl.identification._selection.AutoSelection` that a lightly damped
+testbed never meets, and a structure with a damper does (a mode at 10% damping, as a
+D-strut makes them):
+
+- **travel**: an in-band pole is searched near its guess (the thesis's "only allowing
+  solutions near the guess", within a few half-power bandwidths, :func:`_search._bounds`).
+  When the fit pushes it to that neighbourhood's bound, it is standing for something
+  farther away -- typically a broad mode nobody proposed (no peak in the indicator
+  functions), which then pulls the nearest lightly damped pole off its own peak.  Instead
+  of dropping the pole, it is searched alone (the others fixed) from where it was pushed,
+  each hop with the neighbourhood of its new position, at most :data:`HOPS` times; if it
+  settles inside its bounds, the whole set is refitted from there (the mode it left is
+  proposed again by the residual scan once the broad one is fitted).  Each place is tried
+  once;
+- **heavily damped modes are not fillers**: an in-band pole with a damping above
+  ``zeta_max`` is a filler (it soaks up the tails of modes outside the band) unless its
+  resonance lies inside the band, ``f (1 +- 2 zeta)`` within the band edges, with a
+  damping up to :data:`HEAVY_MAX`.
+
+Internal module: the functions trust their inputs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["HEAVY_MAX", "HOPS", "filler", "travel"]
+
+#: most hops of a pole searched alone from the bound it was pushed to
+HOPS = 3
+#: largest damping ratio of an in-band mode whose resonance lies inside the band
+HEAVY_MAX = 0.3
+
+
+def filler(f: float, z: float, fband, zeta_max: float) -> bool:
+    """Whether an in-band pole ``(f Hz, z)`` is a filler: damping above ``zeta_max`` and
+    its resonance ``f (1 +- 2 z)`` not inside ``fband``, or damping above
+    :data:`HEAVY_MAX`."""
+    if z <= zeta_max:
+        return False
+    inside = f * (1 - 2 * z) >= fband[0] and f * (1 + 2 * z) <= fband[1]
+    return not (inside and z <= HEAVY_MAX)
+
+
+def travel(sel, state):
+    """The state after the in-band poles pushed to a bound were searched alone from there
+    (module notes), or None when none moved inside its bounds.
+
+    Parameters
+    ----------
+    sel : AutoSelection
+        The selection (its ``fit``, ``_first_fit``, ``log`` and ``travelled`` places).
+    state : tuple
+        ``(w, z, side, ev, info)`` of the last fit.
+
+    Returns
+    -------
+    tuple or None
+    """
+    w, z, side, _ev, info = state
+    at = np.asarray(info.get("at_bound", np.zeros(w.size, bool)), bool) & (side == 0) & \
+        (z <= HEAVY_MAX)                      # heavier: a filler wherever it goes
+    todo = [j for j in np.flatnonzero(at) if _place(sel, w[j]) not in sel.travelled]
+    if not todo:
+        return None
+    w2, z2, moved = w.copy(), z.copy(), False
+    for j in todo:
+        sel.travelled.add(_place(sel, w[j]))
+        for _ in range(HOPS):
+            w2, z2, _e, pinfo = sel.fit(w2, z2, side, only=[j])
+            if not pinfo["at_bound"][j]:
+                break
+        settled = not pinfo["at_bound"][j]
+        sel.log.append(("travelled", float(w[j] / (2 * np.pi)), float(z[j]),
+                        float(w2[j] / (2 * np.pi)), float(z2[j]), settled))
+        if not settled:                       # back where the full fit left it
+            w2[j], z2[j] = w[j], z[j]
+        moved = moved or settled
+    return sel._first_fit(w2, z2, side) if moved else None
+
+
+def _place(sel, w: float) -> int:
+    """A pole's place, to the line spacing."""
+    return int(round(w / (2 * np.pi) / sel.df))
