@@ -284,6 +284,8 @@ def fit_free_mode(placed, H) -> dict | None:
                             "maxfev": 300})
     wm, zm = np.exp(res.x)
     X1, _, phi = _mode_residue(placed, e, wm, zm, FINAL_SWEEPS)
+    if not np.all(np.isfinite(X1)):          # no finite mode there (e.g. lines ~ 1e300 Hz)
+        return None
     U, S, Vt = np.linalg.svd(X1)
     c, b = U[:, 0] * np.sqrt(S[0]), Vt[0] * np.sqrt(S[0])
     J = cost(H + phi[:, None, None] * np.outer(c, b)[None], placed.Hd)
