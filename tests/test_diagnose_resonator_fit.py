@@ -15,18 +15,23 @@ import test_diagnose as T
 LINES = np.linspace(8.0, 60.0, 600)
 
 
+def _spy(monkeypatch, calls):
+    """Record ``(lines, evaluations, vanished)`` of every resonator fit."""
+    orig = ff._least_squares
+
+    def spy(s, A, P, Gkk, x0, lb, ub, max_nfev=100):
+        r = orig(s, A, P, Gkk, x0, lb, ub, max_nfev)
+        calls.append((s.size, r.nfev, bool(r.x[0] <= lb[0] + ff.VANISHED)))
+        return r
+    monkeypatch.setattr(ff, "_least_squares", spy)
+
+
 def _diagnose(monkeypatch, case, noise, calls=None, **patch):
     monkeypatch.setattr(T, "FREQ", LINES)
     for k, v in patch.items():
         monkeypatch.setattr(ff, k, v)
     if calls is not None:
-        orig = ff._least_squares
-
-        def spy(s, A, P, Gkk, x0, lb, ub, max_nfev=100):
-            r = orig(s, A, P, Gkk, x0, lb, ub, max_nfev)
-            calls.append((s.size, r.nfev, bool(r.x[0] <= lb[0] + ff.VANISHED)))
-            return r
-        monkeypatch.setattr(ff, "_least_squares", spy)
+        _spy(monkeypatch, calls)
     data = T.clean_data.__wrapped__(case)      # not its cache: other files read it on FREQ
     d = sd.diagnose(T.nominal(), T.noisy(data, noise) if noise else data, T.FE,
                     progress=False)
@@ -98,13 +103,7 @@ def test_finalist_fit_on_all_lines_unless_vanished(monkeypatch, resonator):
     lower bound and no fit on all the lines follows; data with one: found (mass, frequency
     and damping to 1e-4) by the fit on all the lines within FINAL_NFEV evaluations."""
     calls = []
-    orig = ff._least_squares
-
-    def spy(s, A, P, Gkk, x0, lb, ub, max_nfev=100):
-        r = orig(s, A, P, Gkk, x0, lb, ub, max_nfev)
-        calls.append((s.size, r.nfev, bool(r.x[0] <= lb[0] + ff.VANISHED)))
-        return r
-    monkeypatch.setattr(ff, "_least_squares", spy)
+    _spy(monkeypatch, calls)
     J, m, w, z = ff._fit_resonator(*_finalist(resonator))
     assert calls[0][0] == 200
     if not resonator:
