@@ -107,6 +107,7 @@ def _on_fe(model, fe):
     DOF labels of ``fe`` is placed on ``fe`` as a hybrid model (expansion 4.7, as
     :func:`sdctrl.hybrid` does); a complex-mode model through its normal modes (3.3) first.
     Unchanged, with None, when that is not possible or not needed."""
+    from sdctrl.diagnosis._static_states import static_shapes
     from sdctrl.hybrids import hybrid
     from sdctrl.identification import ComplexModeModel, normal_modes
     from sdctrl.modal._normal_model import NormalModeModel
@@ -141,10 +142,14 @@ def _on_fe(model, fe):
     w, wh = np.diag(inner.Omega), np.diag(hy.Omega)
     idx = np.array([int(np.argmin(np.abs(wh - x))) for x in w], dtype=int)
     if np.allclose(wh[idx], w, rtol=1e-12, atol=0) and np.unique(idx).size == idx.size:
-        placed = inner.replace(shapes=hy.shapes[:, idx], dofs=hy.dofs)
+        placed, k = static_shapes(fe, inner.replace(shapes=hy.shapes[:, idx], dofs=hy.dofs),
+                                  hy.construction.pairing)
         what += (f"its {inner.n} modes given shapes on the FE model's {fe.N} DOFs by the "
-                 "expansion of a hybrid model (4.7, as sd.hybrid does), its response at the "
-                 "tested channels unchanged, so that physical candidates can be placed on it")
+                 "expansion of a hybrid model (4.7, as sd.hybrid does)"
+                 + (f", {k} static-correction states those of the FE's static correction "
+                    "of its inputs (4.23)" if k else "")
+                 + ", its response at the tested channels unchanged, so that physical "
+                 "candidates can be placed on it")
     else:
         placed = hy
         what += (f"a hybrid model of its {inner.n} modes on the FE model's {fe.N} DOFs "
