@@ -6,8 +6,9 @@ A model without shapes is given shapes on the FE model by the expansion of a hyb
 (4.7): each state's measured ``cphi`` is fitted by FE modes.  That is exact for the states
 that are FE modes, and wrong for the static-correction states an FE reduction appends
 (2.21)-(2.22), (4.23)-(4.24): their shapes are combinations of the static response to the
-model's inputs less the retained modes' part, ``Psi = K^-1 B - sum phi phi^T B / omega^2``,
-which no set of low FE modes spans.  With those wrong shapes a physical candidate at a
+model's inputs (and, for a reduction with ``damping_paths``, to the dashpots' load paths
+:func:`~sdctrl.fe._reduction.damping_loads`) less the retained modes' part, ``Psi = K^-1 B -
+sum phi phi^T B / omega^2``, which no set of low FE modes spans.  With those wrong shapes a physical candidate at a
 loaded node sees the wrong static flexibility (on a held-out aircraft model: a dashpot
 biased by 0.8-1.2%, a mass by -1.5%, noise-free).
 
@@ -21,6 +22,8 @@ point loads on the FE DOFs.  States that meet neither keep their expanded shape.
 from __future__ import annotations
 
 import numpy as np
+
+from sdctrl.fe._reduction import damping_loads
 
 __all__ = ["FIT", "MATCH", "static_shapes"]
 
@@ -59,7 +62,10 @@ def static_shapes(fe, model, pairing):
     S = np.asarray(model.shapes, float)
     B = fe.point(list(model.actuators))
     C = fe.point(list(model.sensors)).T
-    Psi = fe.static_correction(B, S[:, real])
+    # the loads an FE reduction corrects: the inputs, and the dashpots' load paths
+    # (FEModel.normal_mode_model(..., damping_paths=True))
+    loads = np.hstack([B, damping_loads(fe, S[:, real])])
+    Psi = fe.static_correction(loads, S[:, real])
     G = np.vstack([C @ Psi, B.T @ Psi])
     Y = np.vstack([np.asarray(model.cphi)[:, cand], np.asarray(model.phib)[cand].T])
     A, *_ = np.linalg.lstsq(G, Y, rcond=None)
