@@ -18,6 +18,7 @@ import numpy as np
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
 from sdctrl.diagnosis._apply import DelayedModel, apply_effect
+from sdctrl.diagnosis._band_rules import in_band, trend
 from sdctrl.diagnosis._candidates import Candidates, candidate_groups
 from sdctrl.diagnosis._effect_statistics import joint_std
 from sdctrl.diagnosis._global_effects import (
@@ -329,23 +330,16 @@ def _hypotheses(props) -> int:
     return int(sum(fams.values()))
 
 
-def _in_band(p, freq) -> bool:
-    """A free extra mode whose peak and half-power points lie inside the band."""
-    if p["action"] != "mode":
-        return False
-    f, z = p["parameters"]["frequency"], p["parameters"]["damping"]
-    return bool(freq[0] <= f * (1 - z) and f * (1 + z) <= freq[-1])
-
-
 def _ranked(props, J, sigma2, N, freq):
     """Proposals scored (extended BIC), tested (false-alarm probability over all the step's
     hypotheses) and ranked; residual terms, which stand for effects outside the band, are
     left out when a significant extra mode lies inside it (they would absorb it)."""
+    props = [p for p in props if not trend(p, freq)]
     M = _hypotheses(props)
     for p in props:
         p["score"] = ebic_score(J, p["cost"], sigma2, N, p["k"], p["m"])
         p["false_alarm"] = false_alarm(J, p["cost"], sigma2, N, p["k"], M)
-    if any(_in_band(p, freq) and p["false_alarm"] < ALPHA for p in props):
+    if any(in_band(p, freq) and p["false_alarm"] < ALPHA for p in props):
         props = [p for p in props if p["action"] != "residual"]
     return sorted(props, key=lambda p: -p["score"])
 
