@@ -25,7 +25,7 @@ import scipy.linalg as sla
 from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 from sdctrl._lib.threads import single_thread
-from sdctrl._lib.validate import check_collocated
+from sdctrl._lib.validate import check_bool, check_collocated
 from sdctrl.identification._collocated_scaling import proper_phase, unscaled_poles
 from sdctrl.identification._complex_modes import scale_residues
 from sdctrl.identification._properness import proper_modes
@@ -270,8 +270,7 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     if isinstance(maxiter, bool) or not isinstance(maxiter, int | np.integer) or maxiter < 1:
         raise ValueError(f"maxiter must be a positive integer, got {maxiter!r}")
-    if not isinstance(std, bool | np.bool_):
-        raise TypeError(f"std must be True or False, got {std!r}")
+    check_bool(std, "std")
     in_band = np.asarray(cm.in_band, bool)
     reasons = {}
     if modes is not None:

@@ -24,6 +24,7 @@ from sdctrl._lib.statespace import (
 )
 from sdctrl._lib.validate import (
     QUANTITY_POWER,
+    check_bool,
     check_finite_result,
     check_quantity,
     check_scalar,
@@ -95,8 +96,7 @@ def to_statespace(model, quantity: str = "displacement", omega_c: float | None =
     """
     q = check_quantity(quantity, "quantity")
     omega_c = check_scalar(omega_c, "omega_c", positive=True, optional=True)
-    if not isinstance(rigid_body, bool | np.bool_):
-        raise TypeError(f"rigid_body must be True or False, got {rigid_body!r}")
+    check_bool(rigid_body, "rigid_body")
     with np.errstate(all="ignore"):
         A, B, C, D, states = realisation_matrices(model, QUANTITY_POWER[q], omega_c,
                                                   bool(rigid_body))
