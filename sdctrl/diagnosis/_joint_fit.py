@@ -226,9 +226,9 @@ def pruned(model, fit, placed, noise):
     k = 0
     while k < len(fit.props) - 1:
         p = fit.props[k]
-        if p["action"] not in ("mode", "residual") or (p["action"] == "mode" and any(
-                q["action"] == "gamma" for q in fit.props[k + 1:])):
-            k += 1                    # (a later non-proportional damping couples the mode)
+        if p["action"] not in ("mode", "residual") or (p["action"] == "mode"
+                                                        and _coupled_later(fit.props, k)):
+            k += 1
             continue
         without = refit(model, fit.props[:k] + fit.props[k + 1:], placed, noise)
         if false_alarm(without.J, fit.J, noise, placed.n_entries, p["k"], p["m"]) < ALPHA:
@@ -269,10 +269,16 @@ def shed_trends(model, props, fit, placed, noise):
     last = len(props) - 1
     shed = [i for i in range(last) if leaves_region(fit.props[i], placed.omega)]
     if not shed or leaves_region(fit.props[last], placed.omega) or any(
-            q["action"] == "gamma" for i in shed for q in props[i + 1:]):
+            _coupled_later(props, i) for i in shed):
         return fit, []
     return refit(model, [p for i, p in enumerate(fit.props) if i not in shed], placed,
                  noise), shed
+
+
+def _coupled_later(props, i) -> bool:
+    """Whether a non-proportional damping accepted after effect ``i`` couples it (its
+    ``dGamma`` has the free mode's row and column: the mode cannot be taken out alone)."""
+    return any(q["action"] == "gamma" for q in props[i + 1:])
 
 
 def _kept(model, base, new, placed) -> Corrected:
