@@ -23,7 +23,7 @@ from sdctrl.updating._fit_floor import FLOOR_FACTOR, noise_floor
 from sdctrl.updating._global_start import solve_bounded
 from sdctrl.updating._problem import apply_parameters
 
-__all__ = ["DOUBLINGS", "Solved", "grown"]
+__all__ = ["DOUBLINGS", "Solved", "grown", "on_richer_basis"]
 
 #: most doublings of ``fmax``
 DOUBLINGS = 2
@@ -32,13 +32,32 @@ DOUBLINGS = 2
 @dataclass(frozen=True, eq=False)
 class Solved:
     """An update's solution on one basis: its setup (``fmax``), the updated FE model, its
-    reduced problem (``p = 0`` at ``fe1``), the parameter values and the cost."""
+    reduced problem (``p = 0`` at ``fe1``), the parameter values and the cost; ``richer``
+    the cost of the same parameters with modes to twice ``fmax`` when it was evaluated."""
 
     setup: object
     fe1: object
     prob1: object
     p: np.ndarray
     cost: float
+    richer: float | None = None
+
+
+def on_richer_basis(solved: Solved):
+    """``(setup, problem, cost)`` of ``solved``'s parameters with modes to twice its
+    ``fmax`` (the problem built around ``solved.fe1``).
+
+    Parameters
+    ----------
+    solved : Solved
+
+    Returns
+    -------
+    tuple
+    """
+    setup = replace(solved.setup, fmax=2 * solved.setup.fmax)
+    prob = setup.problem(solved.fe1)
+    return setup, prob, prob.cost(np.zeros(solved.p.size))
 
 
 def grown(fe, solved: Solved, box, stages: list) -> Solved:
@@ -64,11 +83,10 @@ def grown(fe, solved: Solved, box, stages: list) -> Solved:
     for _ in range(DOUBLINGS):
         if not solved.cost > FLOOR_FACTOR * floor:
             break
-        richer = replace(solved.setup, fmax=2 * solved.setup.fmax)
-        prob2 = richer.problem(solved.fe1)
+        richer, prob2, cost2 = on_richer_basis(solved)
+        if not cost2 < 0.5 * solved.cost:
+            return replace(solved, richer=cost2)
         q0 = np.zeros(solved.p.size)
-        if not prob2.cost(q0) < 0.5 * solved.cost:
-            break
         p = solved.p
         q, n = solve_bounded(prob2.residual, q0, lo - p, hi - p, scale, 1e-6, nfev_max)
         p = np.clip(p + q, lo, hi)

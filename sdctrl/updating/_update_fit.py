@@ -24,7 +24,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from sdctrl._lib.display import markdown_table
 from sdctrl._lib.validate import check_int, check_scalar
 from sdctrl.fe._parameters import Parameter
 from sdctrl.fe._fe_model import check_fe_model
-from sdctrl.updating._basis_growth import Solved, grown
+from sdctrl.updating._basis_growth import Solved, grown, on_richer_basis
 from sdctrl.updating._fit_floor import FitFloor, basis_limited, fit_floor
 from sdctrl.updating._global_start import StartBox, fit_stages, solve_bounded
 from sdctrl.updating._placed_test import measured_modes, place_test
@@ -328,10 +328,11 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             prob, p = fit_stages(prob, StartBox(lo, hi, scale, nfev_max), strategy, stages, bar)
             fe1, prob1, p, cost_after = _resolve(fe, setup, prob, p,
                                                  (lo, hi, scale, nfev_max), stages, strategy)
+            solved = Solved(setup, fe1, prob1, p, cost_after)
             if given_fmax is None and strategy != "frequencies":
-                g = grown(fe, Solved(setup, fe1, prob1, p, cost_after),
-                          (lo, hi, scale, nfev_max), stages)
-                setup, fe1, prob1, p, cost_after = g.setup, g.fe1, g.prob1, g.p, g.cost
+                solved = grown(fe, solved, (lo, hi, scale, nfev_max), stages)
+            setup, fe1, prob1, p, cost_after = (solved.setup, solved.fe1, solved.prob1,
+                                                solved.p, solved.cost)
             bar.update()
             after = prob1.pairing(np.zeros(npar)) if modes.n else None
             model = _normal_mode_model(prob1, fe1, measured)
@@ -345,14 +346,15 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
         info={"basis": {"modes": prob1.basis.n_modes, "static": prob1.basis.n_static},
               "strategy": strategy, "time": time.perf_counter() - t0},
         damping=_damping_text(choice, modes), test_modes=modes.source, std=std,
-        fit=_floor(model, setup, fe1, cost_before, cost_after))
+        fit=_floor(model, solved, cost_before))
 
 
-def _floor(model, setup, fe1, cost_before, cost) -> FitFloor:
+def _floor(model, solved: Solved, cost_before) -> FitFloor:
     """The final cost against the nominal one and the data's noise floor
     (:mod:`~sdctrl.updating._fit_floor`), with a warning when it is worse or above it; above
     it, the same parameters on a basis with modes to twice ``fmax`` tell whether the reduced
     basis is what limits the fit (:func:`~sdctrl.updating._fit_floor.basis_limited`)."""
+    setup, cost = solved.setup, solved.cost
     if cost > cost_before:
         warnings.warn(f"update: the updated model fits the data worse than the nominal one "
                       f"(logLS {cost_before:.3g} -> {cost:.3g}); check the parameters, "
@@ -360,9 +362,9 @@ def _floor(model, setup, fe1, cost_before, cost) -> FitFloor:
     frf, modes = setup.measured.frf, setup.modes
     H = model.frf(frf.freq, quantity=frf.quantity).H
     fit = fit_floor(cost, frf.freq, H, frf.H, modes.frequency, modes.damping)
-    if fit.above:
-        richer = replace(setup, fmax=2 * setup.fmax).problem(fe1)
-        fit = basis_limited(fit, cost, setup.fmax, richer.cost(np.zeros(len(setup.parameters))))
+    if fit.above:                 # grown() may have evaluated the richer basis already
+        richer = solved.richer if solved.richer is not None else on_richer_basis(solved)[2]
+        fit = basis_limited(fit, cost, setup.fmax, richer)
     if fit.above:
         warnings.warn(f"update: the final cost is {fit.text}", RuntimeWarning, stacklevel=3)
     return fit
