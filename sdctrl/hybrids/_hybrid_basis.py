@@ -105,6 +105,9 @@ class HybridBasis:
         Static correction of the test inputs (N, ks) and ``omega^2``.
     kappa : float
         Median ratio of measured to paired FE frequencies.
+    appended_test_w2 : ndarray, shape (ka,), or None
+        Measured ``omega^2`` of the appended modes the test kept as residual dynamics, NaN
+        for the others (:mod:`sdctrl.hybrids._measured_residual`, set by the hybrid).
     """
 
     def __init__(self, **parts):
@@ -179,7 +182,8 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
     ratio = np.sqrt(np.clip(w2_id, 0, None)) / (2 * np.pi * f_fe[pair])
     return HybridBasis(expanded=shapes, A=A, low=Sl, low_w2=wl2, appended=Sa, appended_w2=wa2,
                        static=Vs, static_w2=ws2, kappa=float(np.median(ratio)),
-                       low_index=np.flatnonzero(low), appended_index=app, prior=prior)
+                       low_index=np.flatnonzero(low), appended_index=app, prior=prior,
+                       appended_test_w2=None)
 
 
 def _orthogonal_to(fe, X, w2, S):
@@ -325,9 +329,8 @@ def _variant(data: _VariantData, kap: float, fit: str, measured: bool = True):
     w, R_t, Href = data.w, data.R_t, data.Href
     Sl, wl2 = base.low, base.low_w2
     wa2 = base.appended_w2 * kap**2
-    w2_test = getattr(base, "appended_test_w2", None)      # (_measured_residual)
-    if measured and w2_test is not None:
-        wa2 = np.where(np.isnan(w2_test), wa2, w2_test)
+    if measured and base.appended_test_w2 is not None:
+        wa2 = np.where(np.isnan(base.appended_test_w2), wa2, base.appended_test_w2)
     parts = {"measured": (base.expanded, np.diag(kept_modal.Omega), kept_modal.Gamma,
                           data.phib_meas),
              "low": (Sl, wl2), "appended": (base.appended, wa2),
