@@ -79,6 +79,7 @@ class _Plan:
     pulse: float
     averages: int
     noise: float
+    drift: float = 0.0
 
     @property
     def tau(self) -> float:
@@ -86,7 +87,8 @@ class _Plan:
 
 
 def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float = 0.01,
-           seed: int | None = None, band=None, lines: int = 1600, averages: int = 3) -> Survey:
+           seed: int | None = None, band=None, lines: int = 1600, averages: int = 3,
+           drift: float = 0.0) -> Survey:
     """Simulate a roving-hammer survey of a test structure of the family.
 
     Three accelerometers (by default) are placed among the structure's sensor DOFs by a
@@ -127,6 +129,13 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
         from the first line ``df``, so suspension modes lie in the data below the band.
     averages : int
         Hits per hit point.
+    drift : float
+        Relative frequency drift over the survey, as temperature or a changing suspension
+        gives between the first and the last hit point (real surveys: 0.1-0.3%): the
+        ``a``-th hit point (in survey order) sees the structure with stiffness ``(1 + d)^2 K``
+        and damping ``(1 + d) C``, ``d = drift (2 a / (n_hits - 1) - 1)``: every pole times
+        ``1 + d``, from ``1 - drift`` to ``1 + drift`` (the ``poles`` returned are the
+        structure's, at the survey's middle).  0 (default): a time-invariant structure.
 
     Returns
     -------
@@ -158,6 +167,9 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
     seed = check_seed(seed, "seed")
     lines = check_int(lines, "lines", minimum=16, maximum=50_000)
     averages = check_int(averages, "averages", minimum=1, maximum=20)
+    drift = check_scalar(drift, "drift", nonneg=True)
+    if drift >= 0.1:
+        raise ValueError(f"drift must be below 0.1 (a relative frequency change), got {drift!r}")
     lam, psi, dofs = _modes_of(st.builder)
     f = np.abs(lam) / (2 * np.pi)
     inb = (f > lo) & (f < hi) & (lam.imag > 0)
@@ -170,7 +182,8 @@ def survey(structure, n_hits: int | None = None, sensors: int = 3, noise: float 
     n_hits = min(60, len(trans)) if n_hits is None else n_hits
     n_hits = check_int(n_hits, "n_hits", minimum=2, maximum=len(trans))
     hits = _place_hits(st.fe().nodes, dofs, trans, amp, sens, n_hits)
-    plan = _Plan(fs=4 * hi, n=4 * lines, pulse=2 / (3 * hi), averages=averages, noise=noise)
+    plan = _Plan(fs=4 * hi, n=4 * lines, pulse=2 / (3 * hi), averages=averages, noise=noise,
+                 drift=drift)
     frf = _measure(lam, psi[sens], psi[hits], plan, np.random.default_rng(seed), (lo, hi),
                    [dofs[i] for i in sens], [dofs[i] for i in hits])
     order = np.argsort(f[inb])
@@ -263,6 +276,8 @@ def _measure(lam, psi_s, psi_h, plan: _Plan, rng, band, sensors, hits):
     win = np.exp(-t / plan.tau)
     cols, cohs, tau = [], [], None
     for a in range(len(hits)):
+        Ha = Hw[:, :, a] if plan.drift == 0 else _drifted(lam, psi_s, psi_h[a], s, plan.drift *
+                                                            (2 * a / (len(hits) - 1) - 1))
         records = []
         for _ in range(plan.averages):
             t0 = (0.002 + 0.004 * rng.random()) * n / fs
@@ -270,7 +285,7 @@ def _measure(lam, psi_s, psi_h, plan: _Plan, rng, band, sensors, hits):
             size = 100.0 * (1 + 0.4 * (rng.random() - 0.5))
             f = np.where((t >= t0) & (t < t0 + wid), size * np.sin(np.pi * (t - t0) / wid), 0.0)
             Fk = np.fft.rfft(f * win)
-            y = np.fft.irfft(Hw[:, :, a] * Fk[:, None], n=n, axis=0) / win[:, None]
+            y = np.fft.irfft(Ha * Fk[:, None], n=n, axis=0) / win[:, None]
             sig = plan.noise * level * np.abs(Fk).max() / np.sqrt(np.sum(win**2))
             y = y + sig * rng.standard_normal(y.shape)
             f = f + 1e-3 * plan.noise * size * rng.standard_normal(n)
@@ -285,3 +300,11 @@ def _measure(lam, psi_s, psi_h, plan: _Plan, rng, band, sensors, hits):
     return FRF(freq, np.stack(cols, axis=2), quantity="acceleration", sensors=sensors,
                actuators=hits, coherence=np.stack(cohs, axis=2), exponential_tau=tau,
                averages=plan.averages)
+
+
+def _drifted(lam, psi_s, psi_a, s, d):
+    """Windowed accelerance of one hit point of the structure ``((1 + d)^2 K, (1 + d) C, M)``:
+    poles ``lam (1 + d)``, shapes ``psi / sqrt(1 + d)`` (the normalisation ``psi^T U psi = 1``
+    with ``U = [[C, M], [M, 0]]``, 2.8-2.10)."""
+    G = 1.0 / ((1 + d) * (s[:, None] - (1 + d) * lam[None, :]))
+    return np.einsum("fj,sj,j->fs", G, psi_s, psi_a, optimize=True) * (s**2)[:, None]
