@@ -320,3 +320,32 @@ def test_survey_drift_shifts_the_poles_between_hit_points():
         sd.testbeds.survey("plate", drift=-0.001)
     with pytest.raises(ValueError, match="drift"):
         sd.testbeds.survey("plate", drift=0.2)
+
+
+@pytest.mark.parametrize("name", FAMILY)
+def test_no_drift_warning_on_a_steady_survey(name):
+    """True close modes (the truss's pair, the cluster's blades 0.002 Hz apart with one shape
+    at the three accelerometers) are not taken for a drifting mode."""
+    from sdctrl.identification._quality import drift_multiplets
+
+    _, cm = _surveyed(name)
+    assert drift_multiplets(cm) == []
+
+
+def test_drift_between_hit_points_is_said():
+    """A survey whose frequencies drift by +-0.2% from the first hit point to the last (as
+    temperature does in a real test): the one-pole-set model (3.7) splits each of the plate's
+    five modes into a multiplet of poles; ``identify`` says so, with the multiplets, the
+    drift's size and what to try, instead of presenting 20 modes."""
+    sv = sd.testbeds.survey("plate", noise=0.01, seed=1, lines=1600, drift=0.002)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        cm = sd.identify(sv.frf, band=sv.band, progress=False)
+    said = [str(w.message) for w in caught if "multiplets" in str(w.message)]
+    assert len(said) == 1, [str(w.message) for w in caught]
+    # measured: 20 poles in the band, 5 multiplets (one per true mode), spread 0.27%
+    assert cm.in_band.sum() > sv.poles.size
+    assert "5 multiplets" in said[0] and "about 5 modes" in said[0]
+    assert "drift between actuators (hit points)" in said[0] and "poles=" in said[0]
+    spread = float(said[0].split("spread ")[1].split("%")[0]) / 100
+    assert 0.001 < spread < 0.004

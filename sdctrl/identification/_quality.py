@@ -3,16 +3,30 @@
 A fit error above :data:`FIT_WARN` (relative quadratic error, 3.11) is reported with where it
 comes from -- the frequency lines and the channels that carry most of it -- and what to try,
 so that a user never takes a model that misses a third of the data for a good one.
+
+A model that fits well can still hold poles that are no modes: when the structure's
+frequencies drift during a test (temperature, mass loading, a changing suspension; the thesis
+measured 0.2% between tests, 3.4.3), the columns measured early and late see each mode at
+slightly different poles, and a model with one pole set for every column (3.7) splits each mode
+into a multiplet of poles closer than their half-power bandwidth, with one shape on the
+fixed side and differing shapes on the roving side.  :func:`drift_multiplets` says so when it
+happens at several modes (true close modes are the exception a symmetry makes, drift acts on
+every mode).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FIT_WARN", "fit_quality"]
+__all__ = ["DRIFT_MAC", "FIT_WARN", "drift_multiplets", "fit_quality"]
 
 #: relative quadratic fit error (3.11) above which :func:`sdctrl.identify` warns
 FIT_WARN = 0.10
+#: MAC of two poles' shapes on the fixed side (the side with fewer channels) above which two
+#: poles closer than their half-power bandwidths may be one mode seen at drifting frequencies
+DRIFT_MAC = 0.99
+#: fewest multiplets (and share of the band's mode groups) that make the drift warning
+DRIFT_MULTIPLETS, DRIFT_SHARE = 3, 0.25
 
 
 def _concentration(err: np.ndarray, share: float = 0.8) -> np.ndarray:
@@ -63,3 +77,65 @@ def fit_quality(cm, data) -> list[str]:
             "mode, e.g. below the first resonance of a roving-hammer test, cannot be fitted), "
             "check the quantity and units of the data, or give poles= for modes the "
             "automatic selection missed."]
+
+
+def _fixed_shape(R: np.ndarray, fixed_sensors: bool) -> np.ndarray:
+    """Dominant singular vector of one pole's residue ``R`` (ns, na) on the fixed side."""
+    U, _, Vh = np.linalg.svd(R, full_matrices=False)
+    return U[:, 0] if fixed_sensors else Vh[0]
+
+
+def drift_multiplets(cm) -> list[str]:
+    """A warning when the band's poles form multiplets that look like drifting modes.
+
+    Consecutive in-band poles are linked when their frequencies differ by less than the sum
+    of their half-power half-widths ``zeta f`` and their shapes on the fixed side (sensors when
+    there are no more sensors than actuators, as in a roving-hammer survey) have a MAC above
+    :data:`DRIFT_MAC`.  Linked poles form groups; a group of two or more is a multiplet.  At
+    least :data:`DRIFT_MULTIPLETS` multiplets, making at least :data:`DRIFT_SHARE` of the
+    groups, are reported (module notes).
+
+    Parameters
+    ----------
+    cm : ComplexModeModel
+        The identified model.
+
+    Returns
+    -------
+    list of str
+        One message (or none) naming the multiplets, the drift's size and what to try.
+    """
+    idx = np.flatnonzero(np.asarray(cm.in_band, bool))
+    if idx.size < 2 * DRIFT_MULTIPLETS or cm.residues is None:
+        return []
+    idx = idx[np.argsort(cm.frequency[idx])]
+    f, z = cm.frequency[idx], cm.damping[idx]
+    ns, na = cm.residues.shape[1:]
+    fixed_sensors = ns <= na
+    shapes = [_fixed_shape(cm.residues[j], fixed_sensors) for j in idx]
+    groups = [[0]]
+    for k in range(1, idx.size):
+        a, b = shapes[k - 1], shapes[k]
+        mac = abs(np.vdot(a, b)) ** 2 / max(np.vdot(a, a).real * np.vdot(b, b).real, 1e-300)
+        if f[k] - f[k - 1] < z[k] * f[k] + z[k - 1] * f[k - 1] and mac > DRIFT_MAC:
+            groups[-1].append(k)
+        else:
+            groups.append([k])
+    multi = [g for g in groups if len(g) > 1]
+    if len(multi) < max(DRIFT_MULTIPLETS, DRIFT_SHARE * len(groups)):
+        return []
+    spread = float(np.median([(f[g[-1]] - f[g[0]]) / f[g].mean() for g in multi]))
+    shown = "; ".join(", ".join(f"{f[k]:.4g}" for k in g) + " Hz" for g in multi[:3])
+    side, other = ("sensors", "actuators (hit points)") if fixed_sensors else \
+        ("actuators", "sensors (roving sensors: mass loading)")
+    return [f"identify: {sum(len(g) for g in multi)} of the band's {idx.size} poles form "
+            f"{len(multi)} multiplets closer than their half-power bandwidths with one shape at "
+            f"the {side} (MAC > {DRIFT_MAC}), e.g. {shown}: the signature of modes whose "
+            f"frequencies drift between {other} during the test (temperature, mass loading, "
+            f"a changing suspension; spread {spread:.2%} here, thesis 3.4.3), so about "
+            f"{len(groups)} modes rather than {idx.size} -- unless the structure has repeated "
+            "modes (symmetry). The model "
+            "reproduces the data, but count one mode per multiplet. Try: re-measure the first "
+            "points at the end of the test to see the drift, identify groups of points "
+            "measured close in time, or give poles= with one pole per multiplet (its fit "
+            "error then shows what the drift costs)."]
