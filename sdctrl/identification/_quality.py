@@ -138,4 +138,5 @@ def drift_multiplets(cm) -> list[str]:
             "reproduces the data, but count one mode per multiplet. Try: re-measure the first "
             "points at the end of the test to see the drift, identify groups of points "
             "measured close in time, or give poles= with one pole per multiplet (its fit "
-            "error then shows what the drift costs)."]
+            "error then shows what the drift costs; normal modes from such data are poor: "
+            "the drift makes the residues complex, 3.40)."]
