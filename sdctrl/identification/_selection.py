@@ -303,9 +303,8 @@ class AutoSelection:
             for sd in (-1, 1):
                 w, z, side = state[:3]
                 key = (int(np.count_nonzero(side == 0)), w.size)
-                if not self.rules.oob_search:  # retried when the in-band poles changed
-                    key = key[0]
-                    if tried_side[sd] == key or np.any(side == sd):
+                if not self.rules.oob_search:  # one per side, retried when the pole set
+                    if tried_side[sd] == key or np.any(side == sd):    # changed (either side)
                         continue
                     tried_side[sd] = key
                 elif tried_side[sd] == key or self.out_added[sd] >= MAX_OUT:
