@@ -14,7 +14,10 @@ Cases (``--cases``, default all):
 ``10x1n3``   the 10 x 1 set with 3% noise (the partner of the close pair);
 ``testbed``  ``sd.testbed_frf(n=1500, noise=0.01)``, all sensors x 6 shakers (EMA x 6);
 ``testbed600`` the same with 600 lines (the 9.52 Hz mode is 0.45 line wide);
-``scale``    1000 sensors x 3 references x 4000 lines, 20 modes, 0.5% noise (EMA x 3).
+``scale``    1000 sensors x 3 references x 4000 lines, 20 modes, 0.5% noise (EMA x 3);
+``survey``   the plate's simulated roving-hammer survey, 3 accelerometers x 46 hit points,
+             impact H1 through an exponential window (EMA: the accelerometers as
+             references by reciprocity, its decay rates corrected for the window).
 
 For every case the three fits (previous sdctrl, this sdctrl, EMA) are alternated run by
 run (the machine's load drifts) and the medians over ``--runs`` runs are printed: wall
@@ -82,17 +85,26 @@ def load_before(ref: str):
 # --- data: arrays, wrapped into each package's FRF -----------------------------------------
 class Case:
     def __init__(self, name, freq, H, band, lam_true, quantity="displacement",
-                 ema_form="receptance", ema_order=40, collocated=None):
+                 ema_form="receptance", ema_order=40, collocated=None, tau=None):
         self.name, self.freq, self.H, self.band = name, freq, H, band
         self.lam = lam_true
         self.quantity, self.ema_form, self.ema_order = quantity, ema_form, ema_order
         self.collocated = collocated
+        self.tau = tau              # exponential window of the records (s), or None
 
     def frf(self, pkg):
         ns, na = self.H.shape[1:]
+        kw = {} if self.tau is None else {"exponential_tau": self.tau}
         return pkg.FRF(self.freq, self.H, quantity=self.quantity,
                        sensors=[f"S{i}" for i in range(ns)],
-                       actuators=[f"A{j}" for j in range(na)], collocated=self.collocated)
+                       actuators=[f"A{j}" for j in range(na)], collocated=self.collocated,
+                       **kw)
+
+    def ema_data(self):
+        """``H`` as EMA fits it, one reference per last-axis column: a roving-hammer survey
+        (more actuators than sensors) transposed by reciprocity, the accelerometers as the
+        references and the hit points as the outputs, as a test engineer runs EMA on it."""
+        return self.H if self.H.shape[2] <= self.H.shape[1] else np.swapaxes(self.H, 1, 2)
 
 
 def ema_case():
@@ -134,6 +146,21 @@ def testbed_case(n=1500):
     ns, na = frf.H.shape[1:]
     return Case(f"testbed {ns}x{na}x{n} 1% noise", frf.freq, frf.H, tb.TESTBED_BAND, lam,
                 quantity="acceleration", ema_form="accelerance", ema_order=60)
+
+
+def survey_case(name="plate"):
+    """A simulated roving-hammer survey of a family member (3 accelerometers, every hit
+    point hit three times, impact H1 through force and exponential windows, 1% noise):
+    sdctrl is given the FRF with its window (it corrects the damping for it, issue 26);
+    EMA, which does not know the window, has ``1/tau`` added back to its decay rates."""
+    sv = sd.testbeds.survey(name, noise=0.01, seed=1)
+    f = sv.frf.band(0.5 * sv.band[0], min(2 * sv.band[1], sv.frf.freq[-1]))
+    col = [(f.sensors.index(s), f.actuators.index(a)) for s, a in
+           ((sv.driving_point, sv.driving_point),)]
+    ns, na = f.H.shape[1:]
+    return Case(f"{name} survey {ns}x{na}x{f.freq.size} 1% noise (impact, windowed)", f.freq,
+                f.H, sv.band, np.asarray(sv.poles), quantity="acceleration",
+                ema_form="accelerance", ema_order=40, collocated=col, tau=f.exponential_tau)
 
 
 def scale_case(ns=1000, nf=4000, n_modes=20, seed=0, noise=0.005):
@@ -179,10 +206,11 @@ def fit_ema(case):
     band = case.band or (case.freq[0], case.freq[-1])
     approx = np.abs(case.lam) / (2 * np.pi)
     lam = []
-    for a in range(case.H.shape[2]):             # EMA is single-reference
+    H = case.ema_data()
+    for a in range(H.shape[2]):                  # EMA is single-reference
         with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
             warnings.simplefilter("ignore")                 # and EMA's progress bars
-            m = EMA.Model(frf=case.H[:, :, a].T, freq=case.freq, lower=band[0],
+            m = EMA.Model(frf=H[:, :, a].T, freq=case.freq, lower=band[0],
                           upper=band[1], pol_order_high=case.ema_order,
                           frf_form=case.ema_form)
             m.get_poles(method="lscf", show_progress=False)
@@ -190,7 +218,8 @@ def fit_ema(case):
             m.get_constants(method="lsfd")
         w = 2 * np.pi * np.asarray(m.nat_freq)
         z = np.asarray(m.nat_xi)
-        lam.append(-z * w + 1j * w * np.sqrt(1 - z**2))
+        shift = 0.0 if case.tau is None else 1.0 / case.tau    # the window's decay removed
+        lam.append(-z * w + 1j * w * np.sqrt(1 - z**2) + shift)
     return lam
 
 
@@ -239,7 +268,8 @@ def run_case(case, impls, runs, ema_runs):
 
 CASES = {"ema": ema_case, "10x1": lambda: ten_mode_case(1), "10x3": lambda: ten_mode_case(3),
          "10x1n3": lambda: ten_mode_case(1, 0.03), "testbed": testbed_case,
-         "testbed600": lambda: testbed_case(600), "scale": scale_case}
+         "testbed600": lambda: testbed_case(600), "scale": scale_case,
+         "survey": survey_case}
 
 
 def main():
@@ -265,7 +295,8 @@ def main():
             print(f"sdypy-EMA not available ({exc}): `pip install sdypy-ema`")
     for name in args.cases.split(","):
         case = CASES[name]()
-        ema_runs = args.runs if not name.startswith(("scale", "testbed")) else (args.ema_runs or 1)
+        ema_runs = args.runs if not name.startswith(("scale", "testbed", "survey")) else \
+            (args.ema_runs or 1)
         run_case(case, impls, args.runs, ema_runs)
         print(f"  load average: {os.getloadavg()}")
 
