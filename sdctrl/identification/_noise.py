@@ -55,10 +55,20 @@ from sdctrl._lib.chisquare import chi2_isf
 from sdctrl._lib.triangular import solve_upper
 from sdctrl.identification._residues import basis_derivatives, stack
 
-__all__ = ["NoiseTest", "noise_field", "projector_diagonal", "running_median"]
+__all__ = ["NoiseTest", "noise_field", "point_variance", "projector_diagonal",
+           "running_median"]
 
 #: lags (lines) of the second differences of the smooth noise field (module notes)
 SMOOTH_LAGS = (1,)
+
+
+def point_variance(data, n_averages=1):
+    """The point variance ``|H|^2 (1 - coherence) / n_averages`` (3.59) of ``data``'s
+    lines, shape of ``data.H``; None when the FRF carries no coherence below 1 (no measure
+    of its noise: the statistics then take the residual's)."""
+    if data.coherence is None or not np.any(data.coherence < 1.0):
+        return None
+    return np.abs(data.H) ** 2 * (1.0 - data.coherence) / n_averages
 
 
 def running_median(X: np.ndarray, win: int, inside: bool = False) -> np.ndarray:

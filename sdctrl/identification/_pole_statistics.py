@@ -74,7 +74,7 @@ import numpy as np
 
 from sdctrl._lib.triangular import solve_upper
 from sdctrl._lib.validate import QUANTITY_POWER
-from sdctrl.identification._noise import running_median
+from sdctrl.identification._noise import point_variance, running_median
 from sdctrl.identification._residues import LSQ, basis, stack
 
 __all__ = ["COND_MAX", "FitStatistics", "coefficient_variance", "fit_statistics", "pole_std",
@@ -183,9 +183,9 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
                   np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
     A_inv = np.zeros_like(A) if poles_fixed else _gauss_newton_inverse(A)
     rho = line_correlation(data.freq, data.exponential_tau)
-    if data.coherence is not None and np.any(data.coherence < 1.0):
-        var = np.abs(H) ** 2 * (1.0 - data.coherence.reshape(nf, m)) / n_averages
-        noise = "coherence"
+    var = point_variance(data, n_averages)
+    if var is not None:
+        var, noise = var.reshape(nf, m), "coherence"
     else:
         Yfit = stack(Phi) @ C
         var = _residual_variance(stack(H) - Yfit, Yfit, lsq.Q, (Gp, Cp), A_inv, rho)

@@ -21,6 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl.identification._noise import point_variance
+from sdctrl.identification._variance import recorded_divisor
+
 __all__ = ["DRIFT_MAC", "FIT_WARN", "FLOOR_WARN", "coherence_floor", "drift_multiplets",
            "fit_quality"]
 
@@ -50,16 +53,11 @@ def coherence_floor(data) -> float | None:
     ``n_d - 1`` as the statistics do) summed over the lines and channels, over ``sum |H|^2``,
     square-rooted; None when the FRF carries no coherence below 1 (no measure of its noise).
     """
-    from sdctrl.identification._variance import recorded_divisor
-
-    g = getattr(data, "coherence", None)
-    if g is None:
+    var = point_variance(data, recorded_divisor(data))
+    total = float(np.sum(np.abs(data.H) ** 2))
+    if var is None or not total > 0:
         return None
-    g = np.clip(np.asarray(g, float).reshape(data.H.shape), 0.0, 1.0)
-    H2 = np.abs(data.H) ** 2
-    if not np.all(np.isfinite(g)) or not np.any(g < 1) or not H2.sum() > 0:
-        return None
-    floor = float(np.sqrt(np.sum(H2 * (1 - g)) / recorded_divisor(data) / H2.sum()))
+    floor = float(np.sqrt(var.sum() / total))
     return floor if floor > 0 else None
 
 
