@@ -266,18 +266,16 @@ def _measure(lam, psi_s, psi_h, plan: _Plan, rng, band, sensors, hits):
 
     n, fs = plan.n, plan.fs
     w = 2 * np.pi * np.arange(n // 2 + 1) * fs / n
-    # windowed accelerance at the DFT lines: sum_j (c psi_j)(psi_j^T b) s^2 / (s - lam_j)
-    s = 1j * w + 1 / plan.tau
-    G = 1.0 / (s[:, None] - lam[None, :])                                 # (nl, 2N)
-    Hw = np.einsum("fj,sj,aj->fsa", G, psi_s, psi_h, optimize=True) * (s**2)[:, None, None]
+    s = 1j * w + 1 / plan.tau                    # the windowed accelerance at the DFT lines
+    Hw = _accelerance(lam, psi_s, psi_h, s)
     k = (w / (2 * np.pi) >= band[0]) & (w / (2 * np.pi) <= band[1])
     level = np.median(np.abs(Hw[k]), axis=(0, 2))                         # (ns,)
     t = np.arange(n) / fs
     win = np.exp(-t / plan.tau)
     cols, cohs, tau = [], [], None
     for a in range(len(hits)):
-        Ha = Hw[:, :, a] if plan.drift == 0 else _drifted(lam, psi_s, psi_h[a], s, plan.drift *
-                                                            (2 * a / (len(hits) - 1) - 1))
+        Ha = Hw[:, :, a] if plan.drift == 0 else _accelerance(
+            lam, psi_s, psi_h[a:a + 1], s, plan.drift * (2 * a / (len(hits) - 1) - 1))[:, :, 0]
         records = []
         for _ in range(plan.averages):
             t0 = (0.002 + 0.004 * rng.random()) * n / fs
@@ -302,9 +300,10 @@ def _measure(lam, psi_s, psi_h, plan: _Plan, rng, band, sensors, hits):
                averages=plan.averages)
 
 
-def _drifted(lam, psi_s, psi_a, s, d):
-    """Windowed accelerance of one hit point of the structure ``((1 + d)^2 K, (1 + d) C, M)``:
-    poles ``lam (1 + d)``, shapes ``psi / sqrt(1 + d)`` (the normalisation ``psi^T U psi = 1``
-    with ``U = [[C, M], [M, 0]]``, 2.8-2.10)."""
-    G = 1.0 / ((1 + d) * (s[:, None] - (1 + d) * lam[None, :]))
-    return np.einsum("fj,sj,j->fs", G, psi_s, psi_a, optimize=True) * (s**2)[:, None]
+def _accelerance(lam, psi_s, psi_h, s, d=0.0):
+    """Accelerance ``sum_j (c psi_j)(psi_j^T b) s^2 / (s - lam_j)`` (2.10) at the Laplace points
+    ``s`` (nl, ns, n_hits), of the structure ``((1 + d)^2 K, (1 + d) C, M)`` when ``d`` is
+    given (a drift): poles ``lam (1 + d)``, shapes ``psi / sqrt(1 + d)`` (the normalisation
+    ``psi^T U psi = 1`` with ``U = [[C, M], [M, 0]]``, 2.8-2.10)."""
+    G = 1.0 / ((1 + d) * (s[:, None] - (1 + d) * lam[None, :]))          # (nl, 2N)
+    return np.einsum("fj,sj,aj->fsa", G, psi_s, psi_h, optimize=True) * (s**2)[:, None, None]
