@@ -155,8 +155,7 @@ def survey_case(name="plate"):
     EMA, which does not know the window, has ``1/tau`` added back to its decay rates."""
     sv = sd.testbeds.survey(name, noise=0.01, seed=1)
     f = sv.frf.band(0.5 * sv.band[0], min(2 * sv.band[1], sv.frf.freq[-1]))
-    col = [(f.sensors.index(s), f.actuators.index(a)) for s, a in
-           ((sv.driving_point, sv.driving_point),)]
+    col = [(f.sensors.index(sv.driving_point), f.actuators.index(sv.driving_point))]
     ns, na = f.H.shape[1:]
     return Case(f"{name} survey {ns}x{na}x{f.freq.size} 1% noise (impact, windowed)", f.freq,
                 f.H, sv.band, np.asarray(sv.poles), quantity="acceleration",
