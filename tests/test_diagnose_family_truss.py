@@ -13,8 +13,9 @@ its tail at the antiresonances near 32 Hz was not fitted; with its residue refit
 every line (``fit_free_mode``'s second pass), 1.0e-4.  Two effects (the rules put the mass
 and one end of the dashpot on the same node, N46): both found at their places, the error
 left the noise plus the noise-free diagnosis's own floor (4.1e-5 truss, 5.2e-5 truss_high),
-the dashpot biased by 0.7-1.2% (the strict xfail below: issue 23's 3-std criterion fails).
-That bias is the test data's, not the diagnosis's: the data are a reduction of the perturbed
+the dashpot biased by 0.7-1.2%, 17-28 of its noise's std at 1%: its std from the sensors'
+scatter (:mod:`sdctrl.diagnosis._sensor_scatter`) covers it (the last test below).  That
+bias is the test data's, not the diagnosis's: the data are a reduction of the perturbed
 structure on its own modes, the model's corrections a reduction on the nominal modes, and
 the two truncations differ at the shared node.  Against the full model's response (with the
 nominal reduction carrying the dashpots' load paths) the same two effects come out at -0.12%
@@ -61,7 +62,7 @@ def test_two_effects_on_the_trusses(name):
     sizes within 3% noise-free and 10% at 1%, the mass's truth within 3 std at 1%; the error
     left noise-free below 6e-5 and at 1% the noise plus that floor.  The dashpot's size is
     biased by the shared node, noise-free: +0.67% (truss), +1.17% (truss_high), locked here;
-    at 1% that bias is 17-28 of its std (see the strict xfail below)."""
+    at 1% that bias is 17-28 of its noise's std, within 3 of its std (the test below)."""
     cs = (case(name, "mass_change", 1), case(name, "added_damper", 0))
     assert cs[0][1] in cs[1][1]                                  # the shared node
     clean = diagnosis(name, cs, 0.0, max_effects=3)
@@ -75,11 +76,20 @@ def test_two_effects_on_the_trusses(name):
     assert noisy.error_after <= 1.1e-4 + clean.error_after
 
 
-@pytest.mark.xfail(strict=True, reason="issue 23, open: a dashpot sharing its node with a "
-                   "mass is biased by 0.7-1.2% noise-free against the test's reduced data, "
-                   "17-28 of its std at 1% (-0.15% against the full model's data)")
+#: the dashpot's standard deviation at 1% noise (relative), from the sensors' scatter: locked
+DASHPOT_STD = {"truss": 0.0130, "truss_high": 0.0198}
+
+
 @pytest.mark.parametrize("name", TRUSSES)
 def test_two_effects_sharing_a_node_truth_within_three_std(name):
+    """Issue 23's criterion with the shared node's bias: the dashpot's truth within 3 std of
+    its fitted size at 1% noise.  The noise alone gives it 0.036% (truss), 0.039%
+    (truss_high), 17-28 times less than its bias; the sensors' leave-one-out scatter
+    (:mod:`sdctrl.diagnosis._sensor_scatter`) measures that model error from the data:
+    1.30% and 1.98%, about twice the bias.  The mass, unbiased, keeps a small std (0.018%
+    and 0.031% of its 0.128 kg)."""
     cs = (case(name, "mass_change", 1), case(name, "added_damper", 0))
     rn = _sizes(diagnosis(name, cs, 0.01, max_effects=3), cs)
     assert abs(rn["added_damper"][0]) <= 3 * rn["added_damper"][1]
+    assert rn["added_damper"][1] == pytest.approx(DASHPOT_STD[name], rel=0.1)
+    assert abs(rn["mass_change"][0]) <= 3 * rn["mass_change"][1] < 0.002

@@ -114,9 +114,10 @@ class Effect:
     error_after : float
         Same cost with the effect.
     std : dict, optional
-        Like ``parameters``: one standard deviation of each fitted size under the noise of
-        the test (Cramer-Rao bound of the fit, :mod:`sdctrl.diagnosis._effect_statistics`);
-        empty when unknown.
+        Like ``parameters``: one standard deviation of each fitted size, the larger of the
+        noise's (Cramer-Rao bound of the fit) and the scatter the data show between sensors
+        (leave-one-sensor-out, which also holds model error the noise does not:
+        :mod:`sdctrl.diagnosis._effect_statistics`); empty when unknown.
     """
 
     kind: str
