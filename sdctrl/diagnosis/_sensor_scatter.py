@@ -83,7 +83,10 @@ def scatter_covariance(J, r, groups) -> np.ndarray | None:
     J : ndarray, shape (n, p)
         Stacked Jacobian ``[Re; Im] d r / dx`` at the fit.
     r : ndarray, shape (n,)
-        Stacked residual ``[Re r; Im r]`` at the fit.
+        Stacked residual ``[Re r; Im r]`` at the fit; projected off the columns of ``J``
+        (the residual at the linearised optimum), so that a fit stopped short of its optimum
+        (the joint refit stops within about a tenth of a standard deviation, a lone effect
+        keeps its own fit) does not count its remaining step as scatter.
     groups : ndarray of int, shape (n,)
         Group of each row (:func:`channel_groups`), numbered from 0.
 
@@ -100,6 +103,7 @@ def scatter_covariance(J, r, groups) -> np.ndarray | None:
     if w[0] <= w[-1] * 1e-14:
         return None
     half = (V / np.sqrt(w)) @ V.T                # A^-1/2 (scaled coordinates)
+    r = r - Jn @ (half @ (half @ (Jn.T @ r)))      # the residual at the linearised optimum
     order = np.argsort(groups, kind="stable")
     bounds = np.searchsorted(groups[order], np.arange(int(groups.max()) + 2))
     S = np.zeros((J.shape[1], J.shape[1]))
