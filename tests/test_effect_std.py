@@ -5,7 +5,8 @@
 Closed forms for the scatter's estimator; over noise draws on two members of the family,
 with data that the corrected model reproduces exactly (pure noise), the reported std matches
 the scatter of the fitted sizes.  Its honesty under model error (a dashpot sharing its node
-with a mass) is :func:`test_diagnose_family_truss.test_two_effects_sharing_a_node_truth_within_three_std`.
+with a mass) is ``test_two_effects_sharing_a_node_truth_within_three_std`` in
+``tests/test_diagnose_family_truss.py``.
 """
 
 from __future__ import annotations

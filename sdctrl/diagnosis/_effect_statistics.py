@@ -34,7 +34,7 @@ every sensor.  Each reported standard deviation is the larger of the two, ``max(
 s_data) = sqrt(s_noise^2 + max(0, s_data^2 - s_noise^2))``: under pure noise the scatter
 estimates the noise's own (0.91-1.04 of it on the family) with only ``G - 1`` degrees of
 freedom, and the Cramer-Rao bound is then the sharper of the two (the larger of them is
-4-19% above it, rms over 20 draws on five cases of the family, where a sum would count the
+4-19% above it, rms over 20-40 draws on six cases of the family, where a sum would count the
 noise twice, +41%); when the scatter exceeds it, the excess is model error that the noise's
 bound would hide.  A size that only one sensor determines (a free mode's modal
 observability there) keeps the noise's.
