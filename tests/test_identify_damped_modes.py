@@ -66,8 +66,10 @@ def test_a_mode_damped_12_percent_is_found_with_the_others(noise):
 
 def test_the_former_default_lost_it():
     """With ``zeta_max=0.1`` (the former default) the 30 Hz mode is never proposed: logLS
-    0.092 against the exact response (measured), the other three modes found."""
+    0.092 against the exact response (measured), the other three modes found; 0.046 since
+    an out-of-band term is placed after the selection (at 5.9 Hz, identification/
+    _far_terms.py), still 2500x the default's error at 1% noise."""
     frf, exact = _case(0.0)
     cm = _identify(frf, zeta_max=0.1)
     assert not np.any(np.abs(cm.frequency[cm.in_band] - 30.0) < 1.0)
-    assert logls(cm.frf(frf.freq).H, exact) > 0.05
+    assert logls(cm.frf(frf.freq).H, exact) > 0.04

@@ -35,6 +35,7 @@ from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array
 from sdctrl.identification._compression import channel_weights, compressed_data
+from sdctrl.identification._far_terms import CollocatedResidues
 from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
 from sdctrl.identification._initial import (
     initial_candidates,
@@ -256,8 +257,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             if auto:
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
-                                    _noise_shape(data, Hm, V, cw),
-                                    rules=selection_rules(data))
+                                    _noise_shape(data, Hm, V, cw), rules=selection_rules(data),
+                                    collocated=CollocatedResidues.of(data, Hm, prob))
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
                     raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"

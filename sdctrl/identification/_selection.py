@@ -14,7 +14,8 @@ significant, so that the fit reaches the noise whatever lies outside the band (s
 suspension and plate modes below a band, modes just outside both edges).  Out-of-band
 poles are judged against the noise field that excludes residuals smooth in frequency
 (second differences, :func:`~sdctrl.identification._noise.noise_field`), in-band poles
-too when the data show noise independent between lines, else the direct field.  A
+too when the data show noise independent between lines, else the direct field; at the
+end, one passive out-of-band term per side may be placed (:mod:`._far_terms`).  A
 residual-scan candidate that was rejected is excluded (1.5 lines around it) only until
 the model changes: a close mode hidden while its neighbour was not fitted is proposed
 again.  Both sides are tried before the first removal of insignificant poles: the tail of
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl.identification._far_terms import far_terms, oob_grid
 from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._rules import INDEPENDENT, SelectionRules
@@ -51,8 +53,6 @@ PROBE_EVALS = 40
 RESOLVED_STD = 0.5
 #: most poles added on each side of the band
 MAX_OUT = 6
-#: trial frequencies of the grid that places a further out-of-band pole
-OOB_GRID = 12
 
 
 class AutoSelection:
@@ -79,11 +79,14 @@ class AutoSelection:
         selection_rules`: an FRF measured through an exponential window has noise
         correlated between lines and keeps the rules that hold there); default: those of
         noise independent between lines.
+    collocated : CollocatedResidues, optional
+        The data at the collocated pairs (:mod:`._far_terms`: a term must be passive).
     """
 
     def __init__(self, prob, freq, fband, optimizer, max_iter, tol, min_bandwidth, zeta_max,
-                 significance, warn, shape=None, rules: SelectionRules | None = None):
-        self.prob, self.freq, self.fband = prob, freq, fband
+                 significance, warn, shape=None, rules: SelectionRules | None = None,
+                 collocated=None):
+        self.prob, self.freq, self.fband, self.collocated = prob, freq, fband, collocated
         self.optimizer, self.max_iter, self.tol = optimizer, max_iter, tol
         self.df = float(np.median(np.diff(freq)))
         self.min_bw, self.zeta_max = min_bandwidth, zeta_max
@@ -92,10 +95,7 @@ class AutoSelection:
         self.noise.floor = self.rules.floor * prob.normY2
         self.noise.lower_when_independent = self.rules.smooth_scan
         self.scan = ResidualScan(prob, freq, self.noise)
-        self.log = []
-        self.warn = warn
-        self.tried = []
-        self.best = None
+        self.log, self.warn, self.tried, self.best = [], warn, [], None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
         self.zoomed, self.travelled = set(), set()   # pole sets zoomed into, places travelled
 
@@ -326,9 +326,7 @@ class AutoSelection:
         by the cost of the fit with the trial pole added (the others fixed); from the
         edge alone, a probe for modes well beyond it ends at the far bound."""
         w, z, side = state[:3]
-        edge = self.fband[0] if sd < 0 else self.fband[1]
-        span = 0.95 * OUT_FACTOR if sd > 0 else 1 / (0.95 * OUT_FACTOR)
-        grid = edge * (0.97 if sd < 0 else 1.03) * np.geomspace(1.0, span, OOB_GRID)
+        grid = oob_grid(self.fband, sd)
         best, fbest = np.inf, grid[0]
         for f0 in grid:
             x = np.concatenate([np.log(np.append(w, 2 * np.pi * f0)),
@@ -481,11 +479,13 @@ class AutoSelection:
 
     def _final_prune(self):
         """The best state without poles pushed to a bound (an out-of-band pole at the edge
-        would count as a mode), refitted, when the rules ask (not for windowed data)."""
+        would count as a mode), refitted, when the rules ask (not for windowed data); then
+        one more out-of-band term per side where the data need it (:func:`far_terms`)."""
         w, z, side, ev, info = self.best
         pr = self.prune(w, z, side, ev, info, weak=False) if self.rules.final_prune else None
         if pr is not None and pr[0].size and np.any(pr[2] == 0):
             self.best = self._first_fit(*pr)
+        self.best = far_terms(self, self.best, self.collocated)
         return self.best
 
     @staticmethod
