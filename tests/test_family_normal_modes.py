@@ -37,13 +37,19 @@ from sdctrl.updating import logls
 #: exact fit lands on is decided by round-off (the significance test prunes poles against a
 #: noise field of round-off) -- main with scipy's solver gave the 15-pole figure on 11 of 24
 #: copies of the data perturbed by 1e-14, this code on 14; both within the 0.01 asked.
+#: Since the improper parts are also kept where the normal modes would otherwise miss the
+#: identified model by more than it misses the data (the logLS rule,
+#: ``identification._part_selection``), at 1%: truss 0.00888 -> 0.00824 (one part, 54 -> 66
+#: states), truss_high 0.00228 -> 0.00089 (two, 90 -> 114), plate 0.00075 -> 0.00045 (one, 32
+#: -> 36); ladder and cluster unchanged (their normal modes were already that close);
+#: noise-free unchanged (every part already kept).  The held-out structure's 3.75x -> 1.98x.
 MEASURED = {
-    ("truss", 0.0): 0.004274, ("truss", 0.01): 0.008878,
-    ("truss_high", 0.0): 6.844e-08, ("truss_high", 0.01): 0.002806,
+    ("truss", 0.0): 0.004274, ("truss", 0.01): 0.008237,
+    ("truss_high", 0.0): 6.844e-08, ("truss_high", 0.01): 0.000886,
     ("ladder", 0.0): 7.707e-04, ("ladder", 0.01): 0.002484,
     # the noise-free plate since identify's default zeta_max is 0.25: 6.6e-4 -> 4.5e-12
     # measured, locked at 1e-9 (an exact fit: its last digits are round-off)
-    ("plate", 0.0): 1e-09, ("plate", 0.01): 0.001456,
+    ("plate", 0.0): 1e-09, ("plate", 0.01): 0.000450,
     ("cluster", 0.0): 7.961e-05, ("cluster", 0.01): 0.03101,
 }
 #: every member but the cluster meets the acceptance bound max(3 x identified, 0.01) since the improper parts
@@ -289,3 +295,14 @@ def test_statistics_cover_the_normal_modes_only_and_can_be_skipped():
     # the same model otherwise
     assert np.array_equal(full.Omega, nm.Omega) and np.array_equal(full.cphi, nm.cphi)
     assert full.residual.source.tolist() == nm.residual.source.tolist()
+
+
+@pytest.mark.parametrize("name,noise", sorted(MEASURED))
+def test_normal_modes_as_close_to_the_identified_model_as_it_is_to_the_data(name, noise):
+    """The logLS rule's end point on every member: the normal-mode model (with its residual
+    dynamics) against the identified model, on the identification's lines, within the
+    identified model's own logLS against the data (``cm.search.logls``), noise-free and at
+    1% -- what the state count is spent on."""
+    frf, cm, nm = _chain(name, noise)
+    lines = np.linspace(*cm.band, cm.search.lines)
+    assert logls(nm.frf(lines).H, cm.frf(lines).H) <= cm.search.logls * (1 + 1e-9) + 1e-20

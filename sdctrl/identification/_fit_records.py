@@ -69,6 +69,10 @@ class SearchDiagnostics(FrozenState):
         fit returned.
     rcond : float
         Reciprocal condition number of the final pole basis (3.16).
+    logls : float or None
+        Mean logLS (3.12) of the model against the lines it was fitted to, as measured
+        (through the exponential window of windowed data): the closeness
+        :func:`sdctrl.normal_modes` asks of the normal modes to this model.
     """
 
     optimizer: str | None = None
@@ -84,6 +88,7 @@ class SearchDiagnostics(FrozenState):
     message: str | None = None
     interrupted: bool = False
     rcond: float | None = None
+    logls: float | None = None
 
     def __post_init__(self):
         freeze_arrays(self)

@@ -45,7 +45,7 @@ from sdctrl.identification._pole_statistics import part_std
 from sdctrl.modal._residual_dynamics import ResidualDynamics
 
 __all__ = ["IMPROPER", "IMPROPER_SIGMAS", "OUT_OF_BAND", "improper_terms", "modal_factors",
-           "mode_selection", "residual_block", "split_modes"]
+           "mode_selection", "residual_block", "residues_at", "split_modes"]
 
 #: reason recorded for the poles fitted outside the band
 OUT_OF_BAND = ("out of band: a pole fitted to absorb out-of-band modes (it may stand for "
@@ -138,7 +138,7 @@ def modal_factors(nm, poles):
     return (nm.cphi @ V[:n, up])[:, col], W[up, n:][col].T
 
 
-def _model_residues(nm, poles):
+def residues_at(nm, poles):
     """Residues (2.9) of the normal modes of ``nm`` at the tested I/O, at the poles matching
     ``poles`` one to one (nearest), shape (len(poles), ns, na)."""
     X, Y = modal_factors(nm, poles)
@@ -175,7 +175,7 @@ def improper_terms(cm, nm, sel, reasons: dict):
     if OUT_OF_BAND not in reasons.values() or cm.statistics is None or sel.size == 0:
         return none
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
-    D = R - _model_residues(nm, lam)
+    D = R - residues_at(nm, lam)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         std = np.asarray(cm.residue_std())[sel]

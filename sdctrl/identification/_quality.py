@@ -19,13 +19,15 @@ every mode).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from sdctrl.identification._noise import point_variance
 from sdctrl.identification._variance import recorded_divisor
 
 __all__ = ["DRIFT_MAC", "FIT_WARN", "FLOOR_WARN", "coherence_floor", "drift_multiplets",
-           "fit_quality"]
+           "fit_quality", "mean_logls", "with_logls"]
 
 #: relative quadratic fit error (3.11) above which :func:`sdctrl.identify` warns
 FIT_WARN = 0.10
@@ -59,6 +61,21 @@ def coherence_floor(data) -> float | None:
         return None
     floor = float(np.sqrt(var.sum() / total))
     return floor if floor > 0 else None
+
+
+def mean_logls(a, b) -> float:
+    """``mean |ln|a| - ln|b||^2`` (3.12), the logLS of ``a`` against ``b``."""
+    tiny = np.finfo(float).tiny
+    return float(np.mean((np.log(np.abs(a) + tiny) - np.log(np.abs(b) + tiny)) ** 2))
+
+
+def with_logls(cm, data):
+    """``cm`` with ``search.logls``, its mean logLS (3.12) against ``data`` (the lines it was
+    fitted to, as measured); ``cm`` itself when it has no search record."""
+    if cm.search is None:
+        return cm
+    H = cm.frf(data.freq, quantity=data.quantity).H
+    return cm.replace(search=replace(cm.search, logls=mean_logls(H, data.H)))
 
 
 def fit_quality(cm, data) -> list[str]:
