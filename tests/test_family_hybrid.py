@@ -41,18 +41,23 @@ MEASURED = {
     ('truss', 0.0): (0.0048, 0.0048, 137.48, 6.59, 25.48, 0.0001, 0.0473),
     # the truss at 1% since the rows of phib of its close pair (15.8/15.9 Hz) are refitted to
     # the FRF (normal modes, issue 22): before (0.0135, 0.01354, 112.3, 6.51, 24.23, 0.0003)
-    ('truss', 0.01): (0.00907, 0.00911, 133.43, 6.55, 24.57, 0.0002, 0.0473),
+    # the 1% rows since the normal modes keep the improper parts the logLS rule asks for
+    # (identification._part_selection) and a passive out-of-band term may be placed
+    # (identification._far_terms): before truss (0.00907, 0.00911, 133.43, 6.55, 24.57),
+    # truss_high (0.00379, 0.00374, 124.61, 4.73, 19.77), ladder (0.00245, 0.00244, 635.22,
+    # 325.14, 28.87), plate (0.0006, 0.00061, 1576.79, 12.8, 33.22), cluster shaker 0.084
+    ('truss', 0.01): (0.00849, 0.00855, 138.26, 6.53, 24.57, 0.0002, 0.0473),
     ('truss_high', 0.0): (0.00088, 0.00088, 129.42, 4.73, 20.52, 0.003, 0.1147),
-    ('truss_high', 0.01): (0.00379, 0.00374, 124.61, 4.73, 19.77, 0.0028, 0.1147),
+    ('truss_high', 0.01): (0.00202, 0.00198, 124.92, 4.71, 19.77, 0.0028, 0.1147),
     # the noise-free ladder since identification's own solver (issue 27) ends at 15 poles,
     # logLS 7.7e-4 (an exact fit's pruning decided by round-off, tests/test_family_identify.py):
     # before (4e-05, 0.0, 42562.09, 622.04, 43.42, 0.0001) -- every target still met
     ('ladder', 0.0): (0.00086, 0.00087, 1799.13, 491.61, 44.76, 0.0, 0.0443),
-    ('ladder', 0.01): (0.00245, 0.00244, 635.22, 325.14, 28.87, 0.0004, 0.0443),
+    ('ladder', 0.01): (0.00241, 0.00239, 647.22, 327.76, 28.95, 0.0004, 0.0443),
     # the noise-free plate since identify's default zeta_max is 0.25 (its identified model
     # 6.6e-4 -> 4.5e-12): before (0.00076, 0.00091, 1168.15, 12.81, 34.47, 0.0)
     ('plate', 0.0): (5e-08, 0.0, 34282.07, 12.91, 34.47, 0.0, 0.0255),
-    ('plate', 0.01): (0.0006, 0.00061, 1576.79, 12.8, 33.22, 0.0001, 0.0255),
+    ('plate', 0.01): (0.00034, 0.00035, 2741.49, 12.79, 33.22, 0.0001, 0.0255),
     ('cluster', 0.0): (0.00035, 8e-05, 599.47, 117.19, 0.08, 0.0, 0.1113),
     # identification finds the 5 modes at 1% since the pole search weighs each channel by its
     # noise level (before: 4, and 1.02908, 1.02822, 0.21, 0.21, 0.11, 0.0008); the blade mode
@@ -60,7 +65,7 @@ MEASURED = {
     # 0.0025), is a normal mode since its scaling's phase is a proper mode's and the four
     # blade modes' improper parts are kept together (issue 22): D-strut and broken strut
     # 0.57x / 0.58x -> 7.0x / 7.1x, the D-strut RMS error 0.25% -> 0.17%
-    ('cluster', 0.01): (0.03022, 0.03153, 7.03, 7.14, 0.084, 0.0017, 0.1113),
+    ('cluster', 0.01): (0.03022, 0.03153, 7.03, 7.14, 0.0997, 0.0017, 0.1113),
 }
 #: the representation ``residual="auto"`` chose, per member (both noise levels, the hybrid of
 #: every shaker and that of all but the last): on every member the held-out predictions of the
