@@ -407,7 +407,7 @@ def test_fit_above_the_noise_floor_is_said(name):
     said = FIT_WARNINGS[name]
     assert len(said) == int(ratio > FLOOR_WARN)
     if said:
-        assert f"{ratio:.0f} times the" in said[0] and "noise alone" in said[0]
+        assert f"{ratio:.1f} times the" in said[0] and "noise alone" in said[0]
         assert "the band leaves its tail at the edge" in said[0]
     if name == "cluster":                        # the band's two edges carry most of it
         assert "6.008-" in said[0] and "-45 Hz" in said[0]

@@ -204,8 +204,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         Ill-conditioned basis, pole search not converged, poles at a bound, automatic
         selection stopped or interrupted (also listed in ``warnings`` of the model); a fit
         error above 10%, or above 3 times the error the data's noise alone would leave
-        (from the coherence, 3.59), with where it lies and what to try; in-band poles
-        forming multiplets of a drifting mode.
+        (coherence, 3.59; else the residual's second differences, if noise-like), with
+        where it lies and what to try; in-band poles forming multiplets of a drifting mode.
 
     Examples
     --------

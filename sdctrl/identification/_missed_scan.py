@@ -34,10 +34,12 @@ from sdctrl.identification._noise import projector_diagonal
 from sdctrl.identification._residues import basis, pole_from_params, stack
 from sdctrl.identification._search import ZETA_MIN
 
-__all__ = ["ResidualScan"]
+__all__ = ["ZETA_CAP", "ResidualScan"]
 
 #: (bandwidth multiplier of the line spacing, grid stride in lines) of the damping levels
 LEVELS = ((1.0, 1), (4.0, 2), (16.0, 4), (64.0, 16))
+#: largest damping ratio of a trial pole
+ZETA_CAP = 0.05
 
 
 class ResidualScan:
@@ -125,7 +127,7 @@ class ResidualScan:
             ii = idx[i0:i0 + self.chunk]
             fl = self.freq[ii]
             zr = mult * self.df / fl
-            zl = np.clip(zr, ZETA_MIN * 10, 0.05)
+            zl = np.clip(zr, ZETA_MIN * 10, ZETA_CAP)
             fast = (zr == zl) if corr is not None else np.zeros(ii.size, bool)
             out = np.zeros(ii.size)
             for sel, on_grid in ((fast, True), (~fast, False)):

@@ -3,7 +3,8 @@
 Starting from the initial candidates (:mod:`~sdctrl.identification._initial`: stable
 LSCF poles and peaks of the indicator functions), :class:`AutoSelection` iterates:
 add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification._missed_scan`),
-search alone the in-band poles a fit pushed to their bounds (:mod:`._travel`), drop poles
+search alone the in-band poles a fit pushed to their bounds and a rejected batch's strongest
+candidate (:mod:`._travel`), drop poles
 that do not converge (pushed to a bound), fit noise (half-power bandwidth below a fraction
 of the line spacing and a damping the data do not determine, 3.56), are in-band fillers
 (large damping, resonance not inside the band) or are not statistically significant
@@ -41,7 +42,7 @@ from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._rules import INDEPENDENT, SelectionRules
 from sdctrl.identification._search import OUT_FACTOR, search_poles
-from sdctrl.identification._travel import filler, travel
+from sdctrl.identification._travel import alone, filler, travel
 from sdctrl.identification._zoom import sole_poles, zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
@@ -97,7 +98,7 @@ class AutoSelection:
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log, self.warn, self.tried, self.best = [], warn, [], None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
-        self.zoomed, self.travelled = set(), set()   # pole sets zoomed into, places travelled
+        self.zoomed, self.travelled, self.alone = set(), set(), set()   # (_zoom, _travel)
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -469,7 +470,7 @@ class AutoSelection:
             # missed in-band modes: add at residual peaks, keep the significant ones;
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
-            new = (self._add_missed(state, cand) if cand else None) or self._close_modes(state)
+            new = alone(self, state, cand) or self._close_modes(state)
             if new is None:
                 break
             state = self.best = new

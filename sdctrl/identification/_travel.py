@@ -14,6 +14,18 @@ D-strut makes them):
   settles inside its bounds, the whole set is refitted from there (the mode it left is
   proposed again by the residual scan once the broad one is fitted).  Each place is tried
   once;
+- **the strongest candidate alone**: the residual scan proposes its candidates together
+  (:mod:`~sdctrl.identification._missed_scan`); the broad residual of a heavily damped mode
+  nobody fitted yields several broad candidates, which, fitted together, pull one another
+  to their bounds, and the batch is rejected.  When the strongest candidate is at the
+  scan's damping cap (:data:`~sdctrl.identification._missed_scan.ZETA_CAP`: the residual
+  is broader than any trial), it is fitted alone, once per place (to the line spacing)
+  over the selection.  On a held-out structure's 2-shaker test at 1% noise, a 10% mode at
+  33.65 Hz was missed at seeds 1 and 3 (logLS against the exact response 0.25 / 0.26),
+  found alone (33.50 Hz 11.0%, 33.70 Hz 10.3%; 0.12 / 0.043); every family member's
+  identification unchanged.  Without the cap condition, the cluster tested by one shaker
+  (seed 3) had a narrower candidate fitted alone: a fifth pole of 1.4% damping between two
+  of its close modes, logLS 0.041 -> 0.048;
 - **heavily damped modes are not fillers**: an in-band pole with a damping above
   ``zeta_max`` is a filler (it soaks up the tails of modes outside the band) unless its
   resonance lies inside the band, ``f (1 +- 2 zeta)`` within the band edges, with a
@@ -26,7 +38,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["HEAVY_MAX", "HOPS", "filler", "travel"]
+from sdctrl.identification._missed_scan import ZETA_CAP
+
+__all__ = ["HEAVY_MAX", "HOPS", "alone", "filler", "travel"]
 
 #: most hops of a pole searched alone from the bound it was pushed to
 HOPS = 3
@@ -79,6 +93,35 @@ def travel(sel, state):
             w2[j], z2[j] = w[j], z[j]
         moved = moved or settled
     return sel._first_fit(w2, z2, side) if moved else None
+
+
+def alone(sel, state, cand):
+    """The state after the residual scan's candidates ``cand`` (strongest first) were
+    fitted together, or else the strongest alone when at the scan's damping cap (module
+    notes); None when none is kept.
+
+    Parameters
+    ----------
+    sel : AutoSelection
+        The selection (its ``_add_missed``, ``df`` and ``alone`` places).
+    state : tuple
+        ``(w, z, side, ev, info)`` of the last fit.
+    cand : list of (float, float)
+        ``(frequency Hz, damping)`` of the candidates.
+
+    Returns
+    -------
+    tuple or None
+    """
+    if not cand:
+        return None
+    new = sel._add_missed(state, cand)
+    place = int(round(cand[0][0] / sel.df))
+    broad = cand[0][1] >= ZETA_CAP * (1 - 1e-9)
+    if new is None and len(cand) > 1 and broad and place not in sel.alone:
+        sel.alone.add(place)
+        new = sel._add_missed(state, cand[:1], "residual peak (alone)")
+    return new
 
 
 def _place(sel, w: float) -> int:
