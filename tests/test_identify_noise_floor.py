@@ -126,11 +126,14 @@ class _Selection:
     calls, keeping nothing together and a single candidate), ``df`` and ``alone``."""
 
     def __init__(self):
-        self.df, self.alone, self.calls = 0.1, set(), []
+        self.df, self.alone, self.calls, self.log, self.fband = 0.1, set(), [], [], (16, 62)
 
     def _add_missed(self, state, cand, reason="residual peak"):
         self.calls.append((list(cand), reason))
-        return "kept" if len(cand) == 1 else None
+        if len(cand) != 1:
+            return None
+        self.log.append(("added", cand[0][0], cand[0][1], reason))   # fitted where proposed
+        return "kept"
 
 
 def test_the_strongest_broad_candidate_is_fitted_alone_once_per_place():
@@ -145,3 +148,8 @@ def test_the_strongest_broad_candidate_is_fitted_alone_once_per_place():
     assert alone(sel, None, []) is None
     assert alone(sel, None, [(40.0, ZETA_CAP)]) == "kept"     # a single one: fitted once
     assert sel.calls[-1] == ([(40.0, ZETA_CAP)], "residual peak")
+    # a lone pole whose resonance f (1 +- 2 zeta) straddles the band edge is not kept
+    edge = [(17.5, ZETA_CAP), (30.0, ZETA_CAP)]               # 17.5 x 0.9 = 15.75 < 16 Hz
+    assert alone(sel, None, edge) is None
+    assert sel.calls[-1] == (edge[:1], "residual peak (alone)")
+    assert sel.log[-1][0] == "removed" and "not inside the band" in sel.log[-1][3]
