@@ -53,7 +53,7 @@ from sdctrl.identification._residues import (
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
 from sdctrl.identification._rules import selection_rules
 from sdctrl.identification._selection import AutoSelection
-from sdctrl.identification._quality import drift_multiplets, fit_quality, with_logls
+from sdctrl.identification._quality import assessed
 from sdctrl.identification._variance import statistics_or_none
 
 __all__ = ["IdentificationWarning", "identify"]
@@ -271,8 +271,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             bar.close()
         cm = _final_model(data, shown, Hm, normH2, (w, z, side), model, asym, info,
                           messages, e)
-        quality = fit_quality(cm, data) + drift_multiplets(cm)   # data as measured (windowed)
-        cm = with_logls(cm, data)
+        cm, quality = assessed(cm, data)          # against the data as measured (windowed)
         cm = _window_corrected(cm, data.exponential_tau, messages)
     for msg in messages + quality:
         warnings.warn(msg, IdentificationWarning, stacklevel=2)

@@ -41,7 +41,7 @@ import numpy as np
 from sdctrl.identification._noise import point_variance
 from sdctrl.identification._variance import recorded_divisor
 
-__all__ = ["DRIFT_MAC", "FIT_WARN", "FLOOR_WARN", "LAG_RATIO", "coherence_floor",
+__all__ = ["DRIFT_MAC", "FIT_WARN", "FLOOR_WARN", "LAG_RATIO", "assessed", "coherence_floor",
            "difference_floor", "drift_multiplets", "fit_quality", "mean_logls", "with_logls"]
 
 #: relative quadratic fit error (3.11) above which :func:`sdctrl.identify` warns
@@ -106,16 +106,24 @@ def mean_logls(a, b) -> float:
     return float(np.mean((np.log(np.abs(a) + tiny) - np.log(np.abs(b) + tiny)) ** 2))
 
 
-def with_logls(cm, data):
+def assessed(cm, data):
+    """``cm`` with ``search.logls`` (:func:`with_logls`) and the warnings about its fit to
+    ``data`` (:func:`fit_quality`, :func:`drift_multiplets`), its response at the lines of
+    ``data`` evaluated once for both."""
+    H = cm.frf(data.freq, quantity=data.quantity).H
+    return with_logls(cm, data, H), fit_quality(cm, data, H) + drift_multiplets(cm)
+
+
+def with_logls(cm, data, H):
     """``cm`` with ``search.logls``, its mean logLS (3.12) against ``data`` (the lines it was
-    fitted to, as measured); ``cm`` itself when it has no search record."""
+    fitted to, as measured; ``H`` its response there); ``cm`` itself when it has no search
+    record."""
     if cm.search is None:
         return cm
-    H = cm.frf(data.freq, quantity=data.quantity).H
     return cm.replace(search=replace(cm.search, logls=mean_logls(H, data.H)))
 
 
-def fit_quality(cm, data) -> list[str]:
+def fit_quality(cm, data, H) -> list[str]:
     """Warnings about the fit of ``cm`` to ``data``: empty when the error is below
     :data:`FIT_WARN` and below :data:`FLOOR_WARN` times the error its noise alone would
     leave (:func:`coherence_floor` for an FRF with a coherence, else
@@ -127,6 +135,8 @@ def fit_quality(cm, data) -> list[str]:
         The identified model.
     data : FRF
         The lines it was fitted to.
+    H : ndarray
+        The model's response at those lines (``data``'s quantity).
 
     Returns
     -------
@@ -136,7 +146,7 @@ def fit_quality(cm, data) -> list[str]:
     """
     if not np.isfinite(cm.cost):
         return []
-    Rc = data.H - cm.frf(data.freq, quantity=data.quantity).H
+    Rc = data.H - H
     floor, source = coherence_floor(data), "coherence, 3.59"
     if floor is None:
         floor, source = difference_floor(Rc, data.H), "second differences of the residual"
