@@ -125,7 +125,7 @@ def _beyond(state, collocated, new=None) -> np.ndarray:
     return np.flatnonzero(bad & np.append(side != 0, np.ones(t.size - w.size, bool)))
 
 
-def _passive(state, new, collocated, before: int) -> bool:
+def _passive(new, collocated, before: int) -> bool:
     """Whether the last pole of ``new`` is passive and the other terms are no less so than
     the ``before`` terms beyond passive of the state it was added to."""
     j = new[0].size - 1
@@ -133,17 +133,17 @@ def _passive(state, new, collocated, before: int) -> bool:
     return j not in bad and bad.size <= before
 
 
-def _placed(sel, state, sd, collocated, fixed):
+def _placed(sel, state, sd, collocated, fixed, before: int):
     """The state with a term held at the passive place of least cost on side ``sd``, the
-    other poles but the ``fixed`` ones refitted; None when it is passive nowhere."""
+    other poles but the ``fixed`` ones refitted; None when it is passive nowhere
+    (``before``: the terms of ``state`` beyond passive, :func:`_passive`)."""
     w, z, side = state[:3]
     zs = float(np.median(z[side == 0]))
     sn = np.append(side, sd)
-    before = _beyond(state, collocated).size
     best, wbest = np.inf, None
     for f in oob_grid(sel.fband, sd):
         wn, zn = np.append(w, 2 * np.pi * f), np.append(z, zs)
-        if not _passive(state, (wn, zn, sn), collocated, before):
+        if not _passive((wn, zn, sn), collocated, before):
             continue
         cost = sel.prob.evaluate(np.concatenate([np.log(wn), np.log(zn)]))["cost"]
         if cost < best:
@@ -155,8 +155,9 @@ def _placed(sel, state, sd, collocated, fixed):
     return w2, z2, sn, ev2, info2
 
 
-def _why_not(sel, state, new, collocated) -> str | None:
-    """Why the term (last pole) of ``new`` is not kept, else None."""
+def _why_not(sel, new, collocated, before: int) -> str | None:
+    """Why the term (last pole) of ``new`` is not kept, else None (``before``: the terms
+    beyond passive of the state it was added to)."""
     w, z, side, ev, info = new
     reasons = sel._rejected(w, z, side, info, ev)
     if reasons:
@@ -164,7 +165,7 @@ def _why_not(sel, state, new, collocated) -> str | None:
     sig = sel.significance(w, z, ev, side)[-1]
     if sig < 1.0:
         return f"not significant ({sig:.3g} x noise threshold)"
-    if not _passive(state, new, collocated, _beyond(state, collocated).size):
+    if not _passive(new, collocated, before):
         return "not passive at a collocated pair once the other poles were refitted"
     return None
 
@@ -193,12 +194,13 @@ def far_terms(sel, state, collocated):
     fixed = []
     for sd in (-1, 1):
         kind = "out-of-band term " + ("below" if sd < 0 else "above")
-        new = _placed(sel, state, sd, collocated, fixed)
+        before = _beyond(state, collocated).size
+        new = _placed(sel, state, sd, collocated, fixed, before)
         if new is None:
             sel.log.append(("not added", float("nan"), float("nan"),
                             f"{kind}: passive nowhere between the edge and the far bound"))
             continue
-        why = _why_not(sel, state, new, collocated)
+        why = _why_not(sel, new, collocated, before)
         f, zj = float(new[0][-1] / (2 * np.pi)), float(new[1][-1])
         sel.log.append(("added", f, zj, kind) if why is None else
                        ("not added", f, zj, f"{kind}: {why}"))
