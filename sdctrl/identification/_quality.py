@@ -38,6 +38,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from sdctrl._lib.logratio import log_magnitude_ratio
 from sdctrl.identification._noise import point_variance
 from sdctrl.identification._variance import recorded_divisor
 
@@ -102,8 +103,7 @@ def difference_floor(R: np.ndarray, H: np.ndarray) -> float | None:
 
 def mean_logls(a, b) -> float:
     """``mean |ln|a| - ln|b||^2`` (3.12), the logLS of ``a`` against ``b``."""
-    tiny = np.finfo(float).tiny
-    return float(np.mean((np.log(np.abs(a) + tiny) - np.log(np.abs(b) + tiny)) ** 2))
+    return float(np.mean(log_magnitude_ratio(a, b) ** 2))
 
 
 def assessed(cm, data):

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.logratio import log_magnitude_ratio
+
 __all__ = ["comac", "logls", "mac", "quadratic", "relative_error"]
 
 
@@ -85,8 +87,7 @@ def logls(model, test, phase: bool = False) -> float:
     float
     """
     a, b = _pair(model, test)
-    tiny = np.finfo(float).tiny
-    d = np.log(np.abs(a) + tiny) - np.log(np.abs(b) + tiny)
+    d = log_magnitude_ratio(a, b)
     if phase:
         dphi = np.angle(a * np.conj(b))
         return float(np.mean(d**2 + dphi**2))

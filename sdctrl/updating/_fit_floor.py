@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl._lib.logratio import log_magnitude_ratio
+
 __all__ = ["FLOOR_FACTOR", "FitFloor", "basis_limited", "fit_floor", "noise_floor"]
 
 #: a final cost above this many times the noise floor is reported (and warned about)
@@ -114,8 +116,7 @@ def fit_floor(cost: float, freq, H_model, H_data, test_hz, test_zeta) -> FitFloo
     """
     floor = noise_floor(H_data)
     ratio = cost / floor if floor > 0 else float("inf")
-    tiny = np.finfo(float).tiny
-    d2 = np.mean((np.log(np.abs(H_model) + tiny) - np.log(np.abs(H_data) + tiny)) ** 2,
+    d2 = np.mean(log_magnitude_ratio(H_model, H_data) ** 2,
                  axis=tuple(range(1, np.ndim(H_data))))
     excess = np.clip(d2 - floor, 0, None)
     near = np.zeros(freq.shape, bool)
