@@ -114,10 +114,9 @@ def test_passive_models_are_passive_stable_and_as_close_to_the_data(family, name
     np.testing.assert_array_equal(nm.Gamma, plain.Gamma)
 
 
-def test_truss_refit_is_refused_when_the_modes_themselves_are_not_passive(family):
-    """The truss's normal modes are not passive at the pairs: the passive refit would move
-    the model to 0.0149 mean logLS from the identified one (allowed 0.0058); the model is
-    returned as it is, with the reason."""
+def test_truss_refit_is_refused_when_the_band_needs_what_is_not_passive(family):
+    """The truss: the passive refit would move the model to 0.0149 mean logLS from the
+    identified one (allowed 0.0058); the model is returned as it is, with the reason."""
     frf, cm, plain, nm = family["truss"]
     rec = nm.properness.passivity
     assert not rec.refitted and rec.status.startswith("not refitted")
