@@ -148,7 +148,9 @@ def legacy_hybrid(values: dict) -> dict:
 
 register_attrs("Stabilisation", "sdctrl.identification._fit_records:Stabilisation")
 register_attrs("SearchDiagnostics", "sdctrl.identification._fit_records:SearchDiagnostics")
-register_attrs("Properness", "sdctrl.identification._proper:Properness")
+register_attrs("Properness", "sdctrl.identification._properness_record:Properness")
+register_attrs("CollocatedPassivity",
+               "sdctrl.identification._collocated_passivity:CollocatedPassivity")
 register_attrs("ModePairing", "sdctrl.hybrids._hybrid_records:ModePairing")
 register_attrs("ResidualChoice", "sdctrl.hybrids._hybrid_records:ResidualChoice")
 register_attrs("HybridConstruction", "sdctrl.hybrids._hybrid_records:HybridConstruction")
