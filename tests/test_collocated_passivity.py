@@ -138,6 +138,29 @@ def test_noise_free_passive_models(name):
     assert logls(nm.frf(frf.freq, frf.quantity).H, frf) < before + 1e-6
 
 
+def _closed_form_cm(scale=1.0):
+    lam = np.array([-0.5 + 60j, -0.8 + 90j])
+    phi = np.array([[1.0, 0.5], [0.4, -1.0]])
+    R = np.einsum("ij,kj->jik", phi, phi) / (2j * lam.imag)[:, None, None]
+    w3, z3 = 2 * np.pi * 60.0, 0.02
+    l3 = w3 * (-z3 + 1j * np.sqrt(1 - z3**2))
+    R3 = (0.3 - 1j) * 0.002 * np.array([[1.0, 0.3], [0.3, 0.8]])
+    return sd.ComplexModeModel(np.append(lam, l3), scale * np.concatenate([R, R3[None]]),
+                               collocated=[(0, 0), (1, 1)], in_band=[True, True, False],
+                               band=(6.0, 30.0))
+
+
+@pytest.mark.parametrize("scale", [1e-155, 1e155])
+def test_passive_refit_does_not_depend_on_the_unit_of_h(scale):
+    """Residues in any unit (1e-155 to 1e155 times): the same refit, scaled (issue 25's
+    scale-free numerics; the solver sees entries of order one)."""
+    ref = _quiet(sd.normal_modes, _closed_form_cm(), passive=True)
+    nm = _quiet(sd.normal_modes, _closed_form_cm(scale), passive=True)
+    assert nm.properness.passivity.status == ref.properness.passivity.status == "refitted"
+    np.testing.assert_allclose(nm.residual.residues / scale, ref.residual.residues,
+                               rtol=1e-4, atol=1e-6 * np.abs(ref.residual.residues).max())
+
+
 def test_one_out_of_band_term_made_passive_closed_form():
     """Two proper modes and an out-of-band pole whose residue's real part is 15 times the
     positive-real bound ``2 zeta |Im R|``: the collocated admittance dips below zero; the

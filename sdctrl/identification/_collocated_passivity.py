@@ -314,7 +314,8 @@ def _solve(nm, pairs, terms: _Terms, grid, worst):
     M = _stacked(_blocks(terms, 2 * np.pi * f, vel=False), maps) * wgt[:, :, None]
     A = np.concatenate([M.real, M.imag]).reshape(-1, M.shape[2])
     b = np.concatenate([target.real, target.imag]).ravel()
-    d = 1.0 / np.maximum(np.linalg.norm(A, axis=0), 1e-300)         # unknowns of order one
+    top = np.where((top := np.abs(A).max(axis=0)) > 0, top, 1.0)    # norms without overflow
+    d = 1.0 / (top * np.maximum(np.linalg.norm(A / top, axis=0), 1e-300))   # unknowns ~ 1
     Ad = A * d
     y = cp.Variable(A.shape[1])
     # ||A x - b||^2 = y'H y - 2 g'y + const: a quadratic objective, not a cone of nf rows
@@ -323,20 +324,23 @@ def _solve(nm, pairs, terms: _Terms, grid, worst):
     objective = cp.Minimize(cp.quad_form(y, cp.psd_wrap(H)) - 2 * (Ad.T @ b) @ y)
     cons, col = [], 2 * terms.poles.size * k * k
     for m in maps[2 * terms.poles.size:]:                     # E, F positive semi-definite
-        X = cp.reshape(m @ cp.multiply(d[col:col + m.shape[1]], y[col:col + m.shape[1]]),
-                       (k, k), order="C")
+        Mb = m * d[None, col:col + m.shape[1]]
+        X = cp.reshape((Mb / np.abs(Mb).max()) @ y[col:col + m.shape[1]], (k, k), order="C")
         cons.append(0.5 * (X + X.T) >> 0)
         col += m.shape[1]
     used = np.union1d(_local_minima(grid, worst, ADDED), _near_terms(terms, grid))
     peak = max(float(np.abs(_collocated(nm.frf(grid, "velocity").H, pairs)).max()), 1e-300)
     base = nm.replace(residual=None, E=None, F=None)
     for _ in range(ROUNDS):
-        lmi = _lmis(cp, _Lmi(base, pairs, terms, maps, peak), used, cp.multiply(d, y))
+        lmi = _lmis(cp, _Lmi(base, pairs, terms, maps, peak), used, y, d)
         prob = cp.Problem(objective, cons + lmi)
         try:
             prob.solve(solver=cp.CLARABEL, chordal_decomposition_enable=False)
-        except cp.SolverError as exc:
-            raise _Failed(f"solver failed: {exc}") from None
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except BaseException as exc:      # noqa: BLE001 -- the solver's panics are BaseException
+            raise _Failed(f"solver failed ({type(exc).__name__}: {exc}); the model is "
+                          "returned as it is") from None
         if y.value is None or prob.status not in ("optimal", "optimal_inaccurate"):
             raise _Failed(f"solver status {prob.status}")
         trial = _with_blocks(nm, pairs, terms, d * y.value)
@@ -377,9 +381,10 @@ class _Lmi:
     peak: float
 
 
-def _lmis(cp, spec: _Lmi, freq, x):
+def _lmis(cp, spec: _Lmi, freq, y, d):
     """The Hermitian part ``S + jK`` of the collocated admittance PSD at ``freq``, as the
-    real ``[[S, -K], [K, S]] >> 0`` (affine in the unknowns ``x``)."""
+    real ``[[S, -K], [K, S]] >> 0``, affine in the unknowns ``x = d y``; each LMI scaled
+    to entries of order one (the data's unit does not reach the solver)."""
     k = len(spec.pairs)
     if freq.size == 0:
         return []
@@ -389,10 +394,11 @@ def _lmis(cp, spec: _Lmi, freq, x):
     T = np.arange(k * k).reshape(k, k).T.ravel()                 # vec(X^T) = vec(X)[T]
     out = []
     for g in range(freq.size):
-        Ls = 0.5 * (L[g].real + L[g].real[T])                    # Re(c) sym(X)
-        Lk = 0.5 * (L[g].imag - L[g].imag[T])                    # Im(c) skew(X)
-        S = cp.reshape(Ls @ x, (k, k), order="C") + Hh[g].real
-        K = cp.reshape(Lk @ x, (k, k), order="C") + Hh[g].imag
+        Ls = 0.5 * (L[g].real + L[g].real[T]) * d[None, :]       # Re(c) sym(X)
+        Lk = 0.5 * (L[g].imag - L[g].imag[T]) * d[None, :]       # Im(c) skew(X)
+        top = max(np.abs(Ls).max(), np.abs(Lk).max(), np.abs(Hh[g]).max(), 1e-300)
+        S = cp.reshape(Ls / top @ y, (k, k), order="C") + Hh[g].real / top
+        K = cp.reshape(Lk / top @ y, (k, k), order="C") + Hh[g].imag / top
         Z = cp.bmat([[S, -K], [K, S]])
         out.append(0.5 * (Z + Z.T) >> 0)
     return out
