@@ -65,8 +65,8 @@ ADDED = 48
 #: uniform lines of the band in the refit (and points around each pole)
 FIT_LINES = 400
 POLE_OFFSETS = (-2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0)
-#: and at these relative offsets of its frequency
-WINGS = tuple(sorted(sgn * 10.0**e for sgn in (-1, 1) for e in np.arange(-5.0, -1.4, 0.5)))
+#: and on its flanks at these multiples of its damping ratio (relative frequency)
+WINGS = tuple(3.0 * 10.0 ** (0.5 * k) for k in range(12))
 #: a change of the model below this mean logLS (3.12; about 1% rms in magnitude, below the
 #: floor of any of the family's tests at 1% noise) is always allowed (noise-free fits)
 FLOOR = 1e-4
@@ -177,10 +177,19 @@ def _grid(nm, band):
         [] if nm.residual is None else [np.asarray(nm.residual.poles)]))
     z = -lam.real / np.abs(lam)
     near = np.abs(lam)[:, None] * (1 + np.outer(z, POLE_OFFSETS)) / (2 * np.pi)
-    # and at relative offsets: a lightly damped term's Hermitian part decays only as
-    # 1 / (w0^2 - w^2) on its flanks, far beyond its half-power points
-    wing = np.abs(lam)[:, None] * (1 + np.outer(np.ones_like(z), WINGS)) / (2 * np.pi)
-    return np.unique(np.concatenate([f, near[near > 0].ravel(), wing.ravel()]))
+    return np.unique(np.concatenate([f, near[near > 0].ravel(), _wings(lam, f)]))
+
+
+def _wings(lam, f):
+    """Points on the flanks of each pole: a lightly damped term's Hermitian part decays only
+    as ``1 / (w0^2 - w^2)``, far beyond its half-power points; at ``zeta`` times
+    :data:`WINGS` (relative) on either side, up to the log grid's own spacing."""
+    step = float(np.median(np.diff(np.log(f)))) if f.size > 1 else 0.1
+    z = np.maximum(-lam.real / np.abs(lam), 1e-12)
+    rel = np.outer(z, WINGS)
+    rel = np.where(rel < step, rel, np.nan)
+    out = np.abs(lam)[:, None, None] * (1 + np.stack([rel, -rel], axis=2)) / (2 * np.pi)
+    return out[np.isfinite(out) & (out > 0)]
 
 
 def passive_at_pairs(nm, pairs, cm, refit: bool = True):
@@ -352,14 +361,15 @@ def _solve(nm, pairs, terms: _Terms, grid, worst):
 
 
 def _near_terms(terms: _Terms, grid):
-    """Points of ``grid`` nearest each adjustable pole's resonance and half-power points,
-    where a refitted term turns non-passive first (fewer cutting-plane rounds)."""
+    """Points of ``grid`` nearest each adjustable pole's resonance, half-power points and
+    flanks, where a refitted term turns non-passive first (fewer cutting-plane rounds)."""
     lam = terms.poles
     if lam.size == 0:
         return np.zeros(0)
     z = -lam.real / np.abs(lam)
     f = np.abs(lam)[:, None] * (1 + np.outer(z, (-1.0, 0.0, 1.0))) / (2 * np.pi)
-    return np.unique(grid[np.abs(grid[:, None] - f[f > 0][None, :]).argmin(axis=0)])
+    f = np.concatenate([f[f > 0], _wings(lam, grid)])
+    return np.unique(grid[np.abs(grid[:, None] - f[None, :]).argmin(axis=0)])
 
 
 def _local_minima(grid, worst, n):
