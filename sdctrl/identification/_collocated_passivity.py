@@ -32,7 +32,7 @@ positive real:
 
 Measured at 1% noise (seeds 1-3): ``truss_high`` from every pair unstable to every pair
 stable, the model's mean logLS against the data 0.00089 / 0.00106 / 0.00162 -> 0.00093 /
-0.00107 / 0.00165; the ladder, plate and cluster passive with changes below 2e-5 (tests in
+0.00107 / 0.00164; the ladder, plate and cluster passive with changes below 2e-5 (tests in
 ``tests/test_collocated_passivity.py``).  Models already passive are returned unchanged.  Where what keeps the
 model from passive is needed to fit the band (the normal modes' own damping or scaling, 3.45,
 or a non-reciprocal ``F``) the refit would move the model away from the identified one and
