@@ -50,6 +50,7 @@ import scipy.sparse as sps
 
 from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
+from sdctrl.identification._quality import mean_logls
 
 __all__ = ["CollocatedPassivity", "passive_at_pairs"]
 
@@ -93,7 +94,7 @@ class CollocatedPassivity(FrozenState):
         refitted (False: passive already, or nothing to refit, or the refit failed).
     fit_change : float
         Mean logLS (3.12) of the refitted collocated blocks' response against the original
-        one on the band (0 when not refitted).
+        one on the band (0 when no refit was tried; set for a refit not kept too).
     frequencies : ndarray
         Frequencies (Hz) where positive semi-definiteness was imposed.
     status : str
@@ -138,7 +139,7 @@ def _coefficients(lam, w):
     s = 1j * w[:, None]
     sig, wd = -lam.real[None, :], lam.imag[None, :]
     D = s**2 + 2 * sig * s + np.abs(lam[None, :]) ** 2
-    return (2 * s + 2 * sig) / D, (2 * wd / D) * np.ones_like(s)
+    return (2 * s + 2 * sig) / D, 2 * wd / D
 
 
 def _blocks(terms: _Terms, w, vel: bool):
@@ -237,34 +238,33 @@ def _passive(nm, pairs, cm, refit):
                    nm.E is not None, nm.F is not None)
     if terms.poles.size == 0 and not (terms.has_E or terms.has_F):
         return nm, replace(rec, status="nothing to refit")
+    peak = max(float(np.abs(Y).max()), 1e-300)
     try:
-        x, used = _solve(nm, pairs, terms, grid, worst)
+        x, used, after = _solve(nm, pairs, terms, _Grid(grid, worst, peak))
     except _Failed as exc:
         return nm, replace(rec, status=str(exc))
     new = _with_blocks(nm, pairs, terms, x)
-    after = _worst(_collocated(new.frf(grid, "velocity").H, pairs))
-    rec = replace(rec, fit_change=_fit_change(nm, new, pairs, band), frequencies=used)
-    why = _acceptable(nm, new, cm, band)
+    f = np.linspace(band[0], band[1], FIT_LINES)           # the band, for both judgements
+    H_old, H_new = nm.frf(f).H, new.frf(f).H
+    rec = replace(rec, frequencies=used, fit_change=mean_logls(_collocated(H_new, pairs),
+                                                               _collocated(H_old, pairs)))
+    why = _acceptable(H_old, H_new, cm.frf(f).H, cm)
     if why:
         return nm, replace(rec, status=why)
     return new, replace(rec, worst_after=float(after.min()), refitted=True, status="refitted")
 
 
-def _acceptable(old, new, cm, band) -> str:
-    """Empty when the refitted model ``new`` is as close to ``cm`` (mean logLS 3.12 over
-    the band) as ``old`` was, or as the identified model is to its data
+def _acceptable(old, new, ref, cm) -> str:
+    """Empty when the refitted model's response ``new`` is as close to ``cm``'s (``ref``;
+    mean logLS 3.12 over the band) as the model's own ``old`` was, or as the identified model is to its data
     (``cm.search.logls``, the closeness step 7 asks), to within :data:`FLOOR`; else why
     not.  Non-passivity that only a large change of these terms removes is needed by the
     fit in the band -- the normal modes' own (a damping matrix not positive definite,
     ``phib`` not ``cphi^T`` at a pair, 3.45) or a non-reciprocal ``F`` (its antisymmetric
     part turns the admittance non-passive as ``1/w`` below the band: the README's truss)
     -- and is left, reported."""
-    from sdctrl.identification._quality import mean_logls
-
-    f = np.linspace(band[0], band[1], FIT_LINES)
-    ref = cm.frf(f).H
-    before, after = mean_logls(old.frf(f).H, ref), mean_logls(new.frf(f).H, ref)
-    target = getattr(cm.search, "logls", None) if cm.search is not None else None
+    before, after = mean_logls(old, ref), mean_logls(new, ref)
+    target = cm.search.logls if cm.search is not None else None
     allowed = max(before, target or 0.0) + FLOOR
     if after <= allowed:
         return ""
@@ -289,10 +289,19 @@ class _Failed(Exception):
     """The semidefinite program gave no solution (its status as the message)."""
 
 
-def _fit_points(nm, band):
+def _fit_points(band, grid):
+    """The uniform lines of the band and the check grid's points inside it."""
     f = np.linspace(band[0], band[1], FIT_LINES)
-    g = _grid(nm, band)
-    return np.unique(np.concatenate([f, g[(g >= band[0]) & (g <= band[1])]]))
+    return np.unique(np.concatenate([f, grid[(grid >= band[0]) & (grid <= band[1])]]))
+
+
+@dataclass(frozen=True, eq=False)
+class _Grid:
+    """The check's frequencies (Hz), the worst dip at each and the admittance's peak."""
+
+    freq: np.ndarray
+    worst: np.ndarray
+    peak: float
 
 
 def _maps(k: int, terms: _Terms):
@@ -309,14 +318,16 @@ def _stacked(coef, maps):
                           axis=2)
 
 
-def _solve(nm, pairs, terms: _Terms, grid, worst):
-    """The refitted blocks' unknowns by cutting planes; raises _Failed."""
+def _solve(nm, pairs, terms: _Terms, chk: _Grid):
+    """The refitted blocks' unknowns by cutting planes, the constraint frequencies and the
+    dips of the result on the check's grid; raises _Failed."""
     import cvxpy as cp
 
     k = len(pairs)
     maps = _maps(k, terms)
+    grid = chk.freq
     # fit: weighted in-band response of the adjustable terms against their present one
-    f = _fit_points(nm, nm.properness.band)
+    f = _fit_points(nm.properness.band, grid)
     level = np.abs(_collocated(nm.frf(f).H, pairs)).reshape(f.size, k * k)
     wgt = 1.0 / np.maximum(level, 1e-12 * level.max() + 1e-300)
     target = _collocated(_adjustable(nm, f), pairs).reshape(f.size, k * k) * wgt
@@ -337,11 +348,10 @@ def _solve(nm, pairs, terms: _Terms, grid, worst):
         X = cp.reshape((Mb / np.abs(Mb).max()) @ y[col:col + m.shape[1]], (k, k), order="C")
         cons.append(0.5 * (X + X.T) >> 0)
         col += m.shape[1]
-    used = np.union1d(_local_minima(grid, worst, ADDED), _near_terms(terms, grid))
-    peak = max(float(np.abs(_collocated(nm.frf(grid, "velocity").H, pairs)).max()), 1e-300)
-    base = nm.replace(residual=None, E=None, F=None)
+    used = np.union1d(_local_minima(grid, chk.worst, ADDED), _near_terms(terms, grid))
+    spec = _Lmi(nm.replace(residual=None, E=None, F=None), pairs, terms, maps, chk.peak)
     for _ in range(ROUNDS):
-        lmi = _lmis(cp, _Lmi(base, pairs, terms, maps, peak), used, y, d)
+        lmi = _lmis(cp, spec, used, y, d)
         prob = cp.Problem(objective, cons + lmi)
         try:
             prob.solve(solver=cp.CLARABEL, chordal_decomposition_enable=False)
@@ -357,7 +367,7 @@ def _solve(nm, pairs, terms: _Terms, grid, worst):
         if now.min() >= -TOL:
             break
         used = np.unique(np.concatenate([used, _local_minima(grid, now, ADDED)]))
-    return d * y.value, used
+    return d * y.value, used, now
 
 
 def _near_terms(terms: _Terms, grid):
@@ -448,12 +458,3 @@ def _with_blocks(nm, pairs, terms: _Terms, x):
             out[name] = X
             b += 1
     return nm.replace(**out)
-
-
-def _fit_change(old, new, pairs, band) -> float:
-    """Mean logLS of the new collocated response against the old one on the band."""
-    from sdctrl._lib.logratio import log_magnitude_ratio
-
-    f = np.linspace(band[0], band[1], FIT_LINES)
-    a, b = _collocated(new.frf(f).H, pairs), _collocated(old.frf(f).H, pairs)
-    return float(np.mean(log_magnitude_ratio(a, b) ** 2))
