@@ -16,11 +16,12 @@ residue that the proper normal mode does not reproduce (identified residue minus
 model's residue at that pole, 3.7 against 2.15), as a complex-mode term at the same pole --
 where the thesis' assumption of section 3.3 (damping couples the identified modes only; 3.3.2,
 "the assumption of normal mode decoupling from higher frequency modes may not be good enough")
-is contradicted by the data: the identified model holds out-of-band poles (dynamics outside
-the band the in-band modes can couple to) and the improper part exceeds ``IMPROPER_SIGMAS``
-standard deviations of the residue (3.58).  Each kept part adds two states per dyad to the
-realisation (3.26-3.33).  Otherwise the improper part is identification
-error or noise, and the proper modes are the better estimate.  Close modes
+is contradicted by the data: the identified model holds poles kept as residual dynamics
+(dynamics outside the normal-mode set the in-band modes can couple to: out-of-band poles, or
+an in-band pole whose properness cannot be enforced with the others) and the improper part
+exceeds ``IMPROPER_SIGMAS`` standard deviations of the residue (3.58).  Each kept part adds
+two states per dyad to the realisation (3.26-3.33).  Otherwise the improper part is
+identification error or noise, and the proper modes are the better estimate.  Close modes
 (:func:`~sdctrl.identification._close_modes.close_groups`) are judged together: the test
 determines the sum of their residues better than each, and the properness correction trades
 residue between them, so that keeping the improper part of one without the others upsets their
@@ -55,7 +56,7 @@ OUT_OF_BAND = ("out of band: a pole fitted to absorb out-of-band modes (it may s
 #: reason recorded for the improper part of an in-band residue kept at its pole
 IMPROPER = ("improper part: the identified residue minus the proper normal mode's at this pole "
             "(3.7 against 2.15), significant against the residue's standard deviation (3.58) "
-            "with out-of-band poles the in-band modes may couple to (3.3)")
+            "with poles kept as residual dynamics the in-band modes may couple to (3.3)")
 
 #: an improper part is kept when its norm exceeds this many standard deviations of the residue
 #: (norm of the per-entry standard deviations, 3.58): the usual three-sigma significance
@@ -172,7 +173,7 @@ def improper_terms(cm, nm, sel, reasons: dict):
     """
     sel = np.asarray(sel, int)
     none = np.zeros(0, int), np.zeros((0, cm.ns, cm.na), complex)
-    if OUT_OF_BAND not in reasons.values() or cm.statistics is None or sel.size == 0:
+    if not reasons or cm.statistics is None or sel.size == 0:
         return none
     lam, R = np.asarray(cm.poles)[sel], np.asarray(cm.residues)[sel]
     D = R - residues_at(nm, lam)

@@ -20,7 +20,13 @@ model, on the identification's lines, exceeds the identified model's against its
 together, :func:`~sdctrl.identification._close_modes.close_groups`).  Closer than that would
 reproduce the identified model more precisely than it reproduces the test, and each part
 costs two states per dyad of its residue.  A model without that record (built from matrices,
-read from an older file) keeps the first rule alone.
+read from an older file) keeps the first rule alone.  Both rules apply where some pole is kept
+as residual dynamics -- out of band, or in band with its properness failed (the in-band
+modes may couple to either, 3.3); with none, the improper parts are identification error.
+Keyed on out-of-band poles alone, they kept nothing on the family's cluster tested over 8-30
+Hz at 1% (seed 1: no out-of-band pole found, the 10.29 Hz blade mode left residual as the
+identified mass was not positive definite) and the normal modes missed the data by 1.16
+mean logLS against the identified model's 0.099 (11.7x); 0.099 since (1.00x).
 
 Internal module: the functions trust their inputs.
 """
@@ -33,7 +39,7 @@ import numpy as np
 
 from sdctrl.identification._close_modes import close_groups
 from sdctrl.identification._complex_modes import frf_array
-from sdctrl.identification._mode_split import IMPROPER_SIGMAS, OUT_OF_BAND, residues_at
+from sdctrl.identification._mode_split import IMPROPER_SIGMAS, residues_at
 from sdctrl.identification._quality import mean_logls
 
 __all__ = ["closer_parts"]
@@ -70,7 +76,7 @@ def closer_parts(cm, nm, sel, reasons: dict, improper):
     search = cm.search
     target = None if search is None else search.logls
     if target is None or not search.lines or cm.band is None or cm.statistics is None \
-            or OUT_OF_BAND not in reasons.values():
+            or not reasons:
         return improper
     sel = np.asarray(sel, int)
     idx, D0 = improper

@@ -90,8 +90,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     (:class:`~sdctrl.modal.ResidualDynamics`, realised in the 2x2-block form 3.26-3.33).
     Where properness enforced on the in-band modes alone changes their residues significantly
     (more than 3 standard deviations of the residue, 3.58) and the identified model holds
-    out-of-band poles the in-band modes may couple to (section 3.3's assumption fails, e.g. a
-    dashpot), the identified residue minus the normal mode's (3.7 against 2.15) is kept at
+    poles kept as residual dynamics the in-band modes may couple to (out-of-band poles or an
+    in-band pole whose properness failed: section 3.3's assumption fails, e.g. a dashpot),
+    the identified residue minus the normal mode's (3.7 against 2.15) is kept at
     the same pole in ``nm.residual`` too (reason ``"improper part: ..."``, after the other
     poles; the normal modes are unchanged), for close modes together: all of a group's when
     one, or their sum, is significant (:mod:`~sdctrl.identification._close_modes`).  Where
