@@ -53,8 +53,9 @@ from sdctrl.identification._quality import assessed
 __all__ = ["IdentificationWarning", "identify"]
 
 
-#: default weighting of the lines (:func:`identify`)
-WEIGHTING = "level"
+#: default weighting of the lines (:func:`identify`; "level" measured, not yet the default:
+#: module notes of :mod:`~sdctrl.identification._line_weights`)
+WEIGHTING = "none"
 
 
 class IdentificationWarning(UserWarning):
@@ -171,12 +172,13 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         :mod:`sdctrl.identification._noise`.
     seed : int, optional
         Seed of the randomised range finder (results are deterministic given a seed).
-    weighting : {"level", "none"}
-        Weight of each line in the fit: ``"level"``, the inverse of its level across the
-        channels (the fit's least squares become the logLS cost 3.12 linearised, and the
-        maximum-likelihood fit of noise relative to the response;
-        :mod:`~sdctrl.identification._line_weights`), or ``"none"`` (every line alike:
-        the lines at resonances dominate).  Recorded as ``cm.search.weighting``.
+    weighting : {"none", "level"}
+        Weight of each line in the fit: ``"none"`` (every line alike: the lines at
+        resonances dominate), or ``"level"``, the inverse of its level across the channels
+        (the least squares become the logLS cost 3.12 linearised, the maximum-likelihood
+        fit of noise relative to the response; :mod:`~sdctrl.identification._line_weights`),
+        applied to data whose noise is independent between lines (not through an
+        exponential window).  What was applied: ``cm.search.weighting``.
     progress : bool, optional
         Show a progress bar; None (default) follows ``sdctrl.config.progress`` (bars only
         on a terminal or in a notebook).
@@ -242,7 +244,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         p_guess = npp * (w0.size + 6) + sum(asym)
         rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
         cw = channel_weights(Hm) if auto and selection_rules(data).smooth_scan else None
-        lw = line_weights(Hm) if weighting == "level" else None
+        lw = line_weights(Hm) if _level_weighted(weighting, data) else None
         Y, V, rank, residual = _searched_data(Hm, cw, lw, rank, seed)
         info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
                 "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
@@ -411,6 +413,13 @@ def _given_poles(poles, in_band, fband):
     if np.any((side != 0) & (f0 >= fband[0]) & (f0 <= fband[1])):
         raise ValueError("in_band: poles marked out of band must lie outside the band")
     return w0, z0, side
+
+
+def _level_weighted(weighting, data) -> bool:
+    """Whether the lines are weighted (:mod:`._line_weights`): asked for, and the data's
+    noise is independent between lines (no exponential window; the rules' smooth scan)."""
+    return (weighting == "level" and data.exponential_tau is None
+            and selection_rules(data).smooth_scan)
 
 
 def _searched_data(Hm, cw, lw, rank, seed):
