@@ -187,7 +187,7 @@ def test_one_blas_thread_for_the_whole_call(monkeypatch):
             return fn(*args, **kwargs)
         monkeypatch.setattr(fit, name, wrapped)
 
-    for name in ("compressed_data", "lscf_candidates", "_final_model"):
+    for name in ("compressed_data", "lscf_candidates", "final_model"):
         spy(name, getattr(fit, name))
     frf, _, _ = ten_mode(df=0.1)
     with threadpool_limits(limits=2, user_api="blas"):
@@ -195,5 +195,5 @@ def test_one_blas_thread_for_the_whole_call(monkeypatch):
         sd.identify(frf, band=BAND, progress=False, compress_rank=20)
         after = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
     assert after == before
-    assert {n for n, _ in seen} == {"compressed_data", "lscf_candidates", "_final_model"}
+    assert {n for n, _ in seen} == {"compressed_data", "lscf_candidates", "final_model"}
     assert all(t == 1 for _, threads in seen for t in threads)

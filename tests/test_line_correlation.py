@@ -1,12 +1,12 @@
 """Noise correlation between the lines of an exponentially windowed FRF
-(``sdctrl.identification._pole_statistics.line_correlation``, the statistics of windowed
+(``sdctrl.identification._line_correlation.line_correlation``, the statistics of windowed
 data and the reason identification keeps the direct noise field for them): the closed form
 ``rho(d) = 1/(1 + i pi d tau df)`` against the empirical correlation of windowed white
 noise, and the second differences it makes small."""
 
 import numpy as np
 
-from sdctrl.identification._pole_statistics import line_correlation
+from sdctrl.identification._line_correlation import line_correlation
 
 
 def _windowed_noise(n_rec, n, tau_over_T, rng):

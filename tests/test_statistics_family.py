@@ -27,13 +27,14 @@ N_LINES = 200
 NOISES = (0.01, 0.05)
 
 
-def _identify(frf, poles=None):
+def _identify(frf, poles=None, weighting="none"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return sd.identify(frf, poles=poles, progress=False)
+        return sd.identify(frf, poles=poles, progress=False, weighting=weighting)
 
 
-def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=False):
+def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=False,
+                 weighting="none"):
     """Reference fit of the exact data, and for each in-band reference pole its estimate and
     predicted std in each draw (NaN where the draw has no pole near it).
 
@@ -41,7 +42,8 @@ def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=Fal
 
     ``auto=False``: each draw's poles are searched from the reference's (the model
     structure of the noiseless fit); ``auto=True``: a fresh automatic identification, whose
-    choice of model order may change from draw to draw.
+    choice of model order may change from draw to draw.  ``weighting``: :func:`sd.identify`'s
+    (the draws'; the reference is the noiseless fit weighted alike).
 
     Returns
     -------
@@ -50,7 +52,7 @@ def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=Fal
         (n_draws,): the draw's model has as many poles as the reference
     """
     s = sd.testbeds.structure(name) if isinstance(name, str) else name
-    ref = _identify(s.frf(n=n_lines))
+    ref = _identify(s.frf(n=n_lines), weighting=weighting)
     lam = ref.poles[ref.in_band]
     # a draw's pole belongs to a reference pole when it is its nearest and closer than half
     # the distance to any other reference pole (and than 5 half-power bandwidths)
@@ -61,7 +63,7 @@ def family_draws(name, noise, n_draws=N_DRAWS, n_lines=N_LINES, seed=0, auto=Fal
     d["same_order"] = np.zeros(n_draws, bool)
     for k in range(n_draws):
         cm = _identify(s.frf(n=n_lines, noise=noise, seed=seed + k),
-                       poles=None if auto else ref.poles)
+                       poles=None if auto else ref.poles, weighting=weighting)
         d["same_order"][k] = cm.poles.size == ref.poles.size
         for j, p in enumerate(lam):
             i = int(np.argmin(np.abs(cm.poles - p)))

@@ -36,27 +36,26 @@ from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import QUANTITY_POWER, as_array
 from sdctrl.identification._compression import channel_weights, compressed_data
 from sdctrl.identification._far_terms import CollocatedResidues
-from sdctrl.identification._fit_records import SearchDiagnostics, Stabilisation
+from sdctrl.identification._final_fit import FitSpec, final_model
 from sdctrl.identification._initial import (
     initial_candidates,
     lscf_candidates,
     peak_set,
     scaled,
 )
-from sdctrl.identification._residues import (
-    LSQ,
-    basis,
-    coefficients_to_model,
-    n_per_pole,
-    pole_from_params,
-)
+from sdctrl.identification._line_weights import line_weights
+from sdctrl.identification._residues import n_per_pole
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
 from sdctrl.identification._rules import selection_rules
 from sdctrl.identification._selection import AutoSelection
 from sdctrl.identification._quality import assessed
-from sdctrl.identification._variance import statistics_or_none
 
 __all__ = ["IdentificationWarning", "identify"]
+
+
+#: default weighting of the lines (:func:`identify`; "level" measured, not yet the default:
+#: module notes of :mod:`~sdctrl.identification._line_weights`)
+WEIGHTING = "none"
 
 
 class IdentificationWarning(UserWarning):
@@ -67,7 +66,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
              in_band=None, asymptotic: bool = True, compress_rank: int | None = None,
              max_iter: int | None = None, tol: float = 1e-10, min_bandwidth: float = 0.5,
              zeta_max: float = 0.25, significance: float = 2.0, seed: int | None = 0,
-             progress: bool | None = None):
+             weighting: str = WEIGHTING, progress: bool | None = None):
     """Identify a complex-mode model (3.7) from measured FRFs (thesis 3.2.1).
 
     All sensors and actuators are fitted together with a common set of poles.  For
@@ -173,6 +172,13 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         :mod:`sdctrl.identification._noise`.
     seed : int, optional
         Seed of the randomised range finder (results are deterministic given a seed).
+    weighting : {"none", "level"}
+        Weight of each line in the fit: ``"none"`` (every line alike: the lines at
+        resonances dominate), or ``"level"``, the inverse of its level across the channels
+        (the least squares become the logLS cost 3.12 linearised, the maximum-likelihood
+        fit of noise relative to the response; :mod:`~sdctrl.identification._line_weights`),
+        applied to data whose noise is independent between lines (not through an
+        exponential window).  What was applied: ``cm.search.weighting``.
     progress : bool, optional
         Show a progress bar; None (default) follows ``sdctrl.config.progress`` (bars only
         on a terminal or in a notebook).
@@ -220,6 +226,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     """
     max_iter = _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
                               significance)
+    if weighting not in ("level", "none"):
+        raise ValueError(f"weighting must be 'level' or 'none', got {weighting!r}")
     fband, data, shown = _band(frf, band)
     nf = data.freq.size
     asym = (True, True) if asymptotic else (False, False)
@@ -233,15 +241,15 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         else:
             w0, z0, side = _given_poles(poles, in_band, fband)
         _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
-        normH2 = float(np.sum(Hm.real**2) + np.sum(Hm.imag**2))
         p_guess = npp * (w0.size + 6) + sum(asym)
         rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
         cw = channel_weights(Hm) if auto and selection_rules(data).smooth_scan else None
-        Y, V, rank = compressed_data(Hm if cw is None else Hm * cw, rank, seed)
+        lw = line_weights(Hm) if _level_weighted(weighting, data) else None
+        Y, V, rank, residual = _searched_data(Hm, cw, lw, rank, seed)
         info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
                 "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
         if V is not None:
-            info["compression_residual"] = float(max(normH2 - float(np.sum(Y**2)), 0) / normH2)
+            info["compression_residual"] = residual
         if auto:
             merged = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max, info)
             if 2 * nf >= (npp + 2) * merged[0].size + sum(asym):   # else: the peaks only
@@ -253,11 +261,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         bar = progress_bar(desc="identify", unit="eval", enabled=progress)
         try:
             prob = PoleProblem(Y, 2j * np.pi * data.freq, QUANTITY_POWER[data.quantity],
-                               model, asym, bar)
+                               model, asym, bar, lw)
             if auto:
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
-                                    _noise_shape(data, Hm, V, cw), rules=selection_rules(data),
+                                    _noise_shape(data, Hm, V, cw, lw), rules=selection_rules(data),
                                     collocated=CollocatedResidues.of(data, Hm, prob))
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
@@ -269,8 +277,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             info["nfev"] = prob.nfev
         finally:
             bar.close()
-        cm = _final_model(data, shown, Hm, normH2, (w, z, side), model, asym, info,
-                          messages, e)
+        cm = final_model(data, shown, Hm, (w, z, side), FitSpec(model, asym, lw), info,
+                         messages, e)
         cm, quality = assessed(cm, data)          # against the data as measured (windowed)
         cm = _window_corrected(cm, data.exponential_tau, messages)
     for msg in messages + quality:
@@ -407,13 +415,33 @@ def _given_poles(poles, in_band, fband):
     return w0, z0, side
 
 
-def _noise_shape(data, Hm, V, cw=None):
+def _level_weighted(weighting, data) -> bool:
+    """Whether the lines are weighted (:mod:`._line_weights`): asked for, and the data's
+    noise is independent between lines (no exponential window; the rules' smooth scan)."""
+    return (weighting == "level" and data.exponential_tau is None
+            and selection_rules(data).smooth_scan)
+
+
+def _searched_data(Hm, cw, lw, rank, seed):
+    """The pole search's data: ``Hm`` weighted by channel (``cw``) and by line (``lw``),
+    compressed (:func:`compressed_data`), and the relative part the compression leaves out
+    (of the unweighted data's norm without line weights, as before them)."""
+    Hs = Hm if cw is None else Hm * cw
+    Hs = Hs if lw is None else Hs * lw[:, None]
+    Y, V, rank = compressed_data(Hs, rank, seed)
+    ref = Hm if lw is None else Hs
+    n2 = float(np.sum(ref.real**2) + np.sum(ref.imag**2))
+    return Y, V, rank, float(max(n2 - float(np.sum(Y**2)), 0) / n2)
+
+
+def _noise_shape(data, Hm, V, cw=None, lw=None):
     """Point variance (3.59), up to a scale, on the search's (weighted) data columns (None
     without coherence)."""
     if data.coherence is None:
         return None
     pv = np.abs(Hm) ** 2 * (1.0 - data.coherence.reshape(Hm.shape))
     pv = pv if cw is None else pv * cw**2
+    pv = pv if lw is None else pv * lw[:, None] ** 2
     return pv if V is None else pv @ V**2
 
 
@@ -449,51 +477,3 @@ def _search_info(sinfo, info, messages):
     info["search"] = {kk: vv for kk, vv in sinfo.items() if kk != "at_bound"}
     if not sinfo.get("converged", True):
         messages.append(f"pole search did not converge: {sinfo.get('message', '')}")
-
-
-def _final_model(data, fband, Hm, normH2, poles, model, asym, info, messages, e=0):
-    """Residues of the poles on the full data (3.16) and the :class:`ComplexModeModel`."""
-    from sdctrl.identification._complex_modes import ComplexModeModel
-
-    w, z, side = poles
-    _, ns, na = data.H.shape
-    order = np.argsort(w)
-    w, z, side = w[order], z[order], side[order]
-    lam = pole_from_params(w, z)
-    Phi = basis(lam, 2j * np.pi * data.freq, QUANTITY_POWER[data.quantity], model, asym)
-    lsq = LSQ(Phi)
-    QtY = lsq.project(Hm)
-    C = lsq.coefficients(QtY)
-    cost2 = lsq.residual2(Hm, QtY)        # not ||H||^2 - ||Q^T Y||^2: it cancels
-    if lsq.rcond < 1e-12:
-        messages.append(f"ill-conditioned pole basis (reciprocal condition {lsq.rcond:.2e}): "
-                        "poles too close together or too many asymptotic terms")
-    info["rcond"] = float(lsq.rcond)
-    R, E, F = coefficients_to_model(C, lam, model, asym, ns, na)
-    if e:
-        R = np.ldexp(R.real, e) + 1j * np.ldexp(R.imag, e)
-        E, F = np.ldexp(E, e), np.ldexp(F, e)
-        if not (np.all(np.isfinite(R)) and np.all(np.isfinite(E)) and np.all(np.isfinite(F))):
-            raise ValueError("frf.H: the residues of data this large overflow (largest "
-                             f"|H| = 2^{e}); rescale the data")
-    cm = ComplexModeModel(poles=lam, residues=R, E=E, F=F, in_band=side == 0,
-                          cost=float(np.sqrt(cost2 / normH2)), sensors=data.sensors,
-                          actuators=data.actuators, collocated=data.collocated, band=fband,
-                          **_records(info, messages))
-    return cm.replace(statistics=statistics_or_none(cm, data))           # (3.56)-(3.59)
-
-
-def _records(info: dict, messages: list) -> dict:
-    """The typed fields of the model (``stabilisation``, ``warnings``, ``search``) from the
-    diagnostics gathered during the fit; what remains (the selection log) stays in ``info``."""
-    info = dict(info)
-    stab = info.pop("stabilisation", None)
-    last = info.pop("search", {})
-    keys = ("optimizer", "model", "asymptotic", "compress_rank", "compression_residual",
-            "lines", "channels", "nfev", "interrupted", "rcond")
-    search = SearchDiagnostics(**{k: info.pop(k) for k in keys if k in info},
-                               converged=bool(last.get("converged", True)),
-                               status=last.get("status"), message=last.get("message"))
-    return {"info": info, "warnings": tuple(messages), "search": search,
-            "stabilisation": None if stab is None else
-            Stabilisation(np.asarray(stab["orders"]), tuple(stab["poles"]))}

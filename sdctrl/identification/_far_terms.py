@@ -82,6 +82,9 @@ class CollocatedResidues:
     def __init__(self, H, na, pairs, prob):
         self.H = H[:, [i * na + j for i, j in pairs]]
         self.s, self.k, self.model, self.asym = prob.s, prob.k, prob.model, prob.asym
+        self.weight = prob.weight                 # the search's line weights, on H too
+        if self.weight is not None:
+            self.H = self.H * self.weight[:, None]
 
     @classmethod
     def of(cls, data, H, prob):
@@ -97,7 +100,7 @@ class CollocatedResidues:
         holds the model error too: conservative)."""
         n = w.size
         lam = pole_from_params(w, z)
-        lsq = LSQ(basis(lam, self.s, self.k, self.model, self.asym))
+        lsq = LSQ(basis(lam, self.s, self.k, self.model, self.asym, self.weight))
         QtY = lsq.project(self.H)
         C = lsq.coefficients(QtY)
         R, _, _ = coefficients_to_model(C, lam, self.model, self.asym, 1, self.H.shape[1])

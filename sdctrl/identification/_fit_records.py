@@ -73,6 +73,10 @@ class SearchDiagnostics(FrozenState):
         Mean logLS (3.12) of the model against the lines it was fitted to, as measured
         (through the exponential window of windowed data): the closeness
         :func:`sdctrl.normal_modes` asks of the normal modes to this model.
+    weighting : str or None
+        How the lines were weighted in the fit (:mod:`~sdctrl.identification._line_weights`):
+        ``"level"`` (each line by its level across the channels, the logLS cost 3.12
+        linearised) or ``"none"`` (None: a model from before the option).
     """
 
     optimizer: str | None = None
@@ -89,6 +93,7 @@ class SearchDiagnostics(FrozenState):
     interrupted: bool = False
     rcond: float | None = None
     logls: float | None = None
+    weighting: str | None = None
 
     def __post_init__(self):
         freeze_arrays(self)

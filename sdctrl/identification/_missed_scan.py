@@ -70,7 +70,7 @@ class ResidualScan:
         G = self._trials.get(key)
         if G is None:
             prob = self.prob
-            G = stack(basis(lam, prob.s, prob.k, prob.model, (False, False)))
+            G = stack(basis(lam, prob.s, prob.k, prob.model, (False, False), prob.weight))
             # four damping levels, about 1 + 1/2 + 1/4 + 1/16 trials per line
             if 2 * prob.s.size * 1.9 * self.freq.size * prob.npp <= 2**23:
                 self._trials[key] = G
@@ -172,8 +172,8 @@ class ResidualScan:
         Q, r = ev["lsq"].Q, ev["r"]
         sig2 = self.noise.field(ev, smooth=smooth)
         prob = self.prob
-        corr = None if self.grid is None else TrialCorrelations(self.grid, prob.s, prob.k,
-                                                                prob.model, (Q, r))
+        corr = None if self.grid is None else TrialCorrelations(
+            self.grid, prob.s, prob.k, prob.model, (Q, r), prob.weight)
         found = []                                # (ratio, line index, damping)
         for mult, stride in LEVELS:
             idx, level, zlev = self._level(corr, Q, r, sig2, mult, stride)

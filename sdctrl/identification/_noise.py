@@ -396,7 +396,7 @@ class NoiseTest:
         prob = self.prob
         n, npp, nf = w.size, prob.npp, self.nf
         lsq, C = ev["lsq"], ev["C"]
-        deriv = basis_derivatives(ev["lam"], w, z, prob.s, prob.k, prob.model)
+        deriv = basis_derivatives(ev["lam"], w, z, prob.s, prob.k, prob.model, prob.weight)
         D = stack(deriv.transpose(1, 0, 2, 3).reshape(nf, 2 * n * npp))   # par a: cols a*npp
         D -= lsq.Q @ (lsq.Q.T @ D)                                       # P_perp dPhi/dx
         crow = (np.arange(2 * n) % n)[:, None] * npp + np.arange(npp)[None, :]

@@ -17,15 +17,18 @@ estimated from the residual) the covariance of ``[theta; C_1 ... C_m]`` is
 
 with ``M_c = Phi^+ D_c``, ``K_c = Phi^+ W_c^2 B_c`` (zero for equal noise on every line),
 ``V_c = Phi^+ W_c^2 Phi^+^T``.  These small blocks are kept (:class:`FitStatistics`), not
-the full covariance, which would be quadratic in the number of channels.
+the full covariance, which would be quadratic in the number of channels.  A fit with line weights ``L``
+(``cm.search.weighting == "level"``, :mod:`~sdctrl.identification._line_weights`) is the
+unweighted fit of ``L y_c`` on the basis ``L Phi``: the same blocks, of the weighted data,
+basis and derivatives, with the noise's variance ``L^2 W_c^2``.
 
 Data taken with an exponential window ``exp(-t/tau)`` on the responses (impact tests,
 ``frf.exponential_tau``) do not have independent lines: the window's spectrum spreads the
 noise of each line over its neighbours, with the correlation ``a / (a + 2 pi j d)`` between
-lines ``d`` apart, ``a = 2 T / tau`` (:func:`line_correlation`; 0.83 in modulus between
+lines ``d`` apart, ``a = 2 T / tau`` (:func:`~sdctrl.identification._line_correlation.line_correlation`; 0.83 in modulus between
 neighbours for a window ending at 1%).  ``W_c^2`` is then the full covariance
 ``sig_k sig_l rho(k - l)`` over the lines, applied by one convolution along them
-(:func:`_noise_times`), with ``sig_k^2`` the point variance's running mean over
+(:func:`~sdctrl.identification._line_correlation.noise_times`), with ``sig_k^2`` the point variance's running mean over
 :data:`SMOOTH_LINES` lines (the products ``sig_k sig_l`` of square roots of per-line
 estimates -- exponential laws for two averages -- are biased low by up to ``pi/4``; the
 noise variance of an H1 estimate, the sensor's noise over the force spectrum, is smooth over
@@ -74,6 +77,8 @@ import numpy as np
 
 from sdctrl._lib.triangular import solve_upper
 from sdctrl._lib.validate import QUANTITY_POWER
+from sdctrl.identification._line_correlation import line_correlation, local_mean, noise_times
+from sdctrl.identification._line_weights import line_weights
 from sdctrl.identification._noise import point_variance, running_median
 from sdctrl.identification._residues import LSQ, basis, stack
 
@@ -163,16 +168,18 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     k = QUANTITY_POWER[data.quantity]
     lam = _poles_in_data(cm)
     n = lam.size
-    Phi = basis(lam, s, k, model, asymptotic)
+    L = line_weights(data.H.reshape(nf, m)) if _level_weighted(cm) else None
+    Phi = basis(lam, s, k, model, asymptotic, L)
     q = Phi.shape[1]
     if 2 * nf * m <= q * m + 2 * n:
         return None
     lsq = LSQ(Phi)
     Pinv = solve_upper(lsq.Rr, lsq.Q.T) / lsq.scale[:, None]
-    H = data.H.reshape(nf, m)
+    H = data.H.reshape(nf, m) if L is None else data.H.reshape(nf, m) * L[:, None]
     C = Pinv @ stack(H)                                               # (q, m)
     npp = 2 if model == "complex" else 1
-    G = stack(_basis_derivative(lam, s, k, model).reshape(nf, -1))    # (2nf, 2n npp)
+    G = _basis_derivative(lam, s, k, model)
+    G = stack((G if L is None else G * L[:, None, None]).reshape(nf, -1))   # (2nf, 2n npp)
     Gp = G - lsq.Q @ (lsq.Q.T @ G)                                   # P_perp dPhi/dtheta
     Cp = C[(np.arange(2 * n) // 2)[:, None] * npp + np.arange(npp)]  # (2n, npp, m)
     # P_perp D_c of every channel, pole-major (2n, m, 2nf): contiguous in the lines
@@ -186,26 +193,26 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     var = point_variance(data, n_averages)
     if var is not None:
         var, noise = var.reshape(nf, m), "coherence"
+        var = var if L is None else var * L[:, None] ** 2
     else:
         Yfit = stack(Phi) @ C
         var = _residual_variance(stack(H) - Yfit, Yfit, lsq.Q, (Gp, Cp), A_inv, rho)
         noise = "residual"
-    sig = np.sqrt(var if rho is None else _local_mean(var, SMOOTH_LINES))
-    WBq = np.ascontiguousarray(_noise_times(B, sig, rho).transpose(1, 2, 0))   # Sigma_c B_c
+    sig = np.sqrt(var if rho is None else local_mean(var, SMOOTH_LINES))
+    WBq = np.ascontiguousarray(noise_times(B, sig, rho).transpose(1, 2, 0))   # Sigma_c B_c
     S = A_inv @ (Bq.reshape(2 * n, -1) @ WBq.reshape(2 * n, -1).T) @ A_inv
     M = np.einsum("pau,aum->mpa", (Pinv @ G).reshape(q, 2 * n, npp), Cp)   # Phi^+ D_c
     K = (WBq.reshape(2 * n * m, 2 * nf) @ Pinv.T).reshape(2 * n, m, q).transpose(1, 2, 0)
-    WP = _noise_times(np.broadcast_to(Pinv.T[:, :, None], (2 * nf, q, m)), sig, rho)
+    WP = noise_times(np.broadcast_to(Pinv.T[:, :, None], (2 * nf, q, m)), sig, rho)
     V = np.matmul(Pinv, WP.transpose(2, 0, 1))                      # (m, q, q)
     return FitStatistics(S=0.5 * (S + S.T), A_inv=A_inv, M=M, K=K, V=V, model=model,
                          asymptotic=tuple(bool(a) for a in asymptotic), noise=noise)
 
 
-def _local_mean(X, win: int) -> np.ndarray:
-    """Running mean over ``win`` lines (axis 0, edges held) of ``X`` (nf, m)."""
-    from scipy.ndimage import uniform_filter1d
-
-    return uniform_filter1d(X, size=min(win, X.shape[0]), axis=0, mode="nearest")
+def _level_weighted(cm) -> bool:
+    """Whether ``cm`` was fitted with line weights (:mod:`._line_weights`): its statistics
+    are then those of the weighted fit (data, basis and noise weighted alike)."""
+    return getattr(getattr(cm, "search", None), "weighting", None) == "level"
 
 
 def _poles_in_data(cm) -> np.ndarray:
@@ -215,53 +222,6 @@ def _poles_in_data(cm) -> np.ndarray:
     tau = getattr(cm, "exponential_tau", None)
     lam = np.asarray(cm.poles, complex)
     return lam if tau is None else lam - 1.0 / tau
-
-
-def line_correlation(freq, tau):
-    """Correlation of the noise between lines of data taken with an exponential window.
-
-    White noise ``e(t)`` windowed by ``w(t) = exp(-t/tau)`` over a record of length
-    ``T = 1/df`` has at lines ``k`` and ``l = k - d`` the correlation
-    ``sum_t w^2 exp(-2 pi j d t/T) / sum_t w^2 = a / (a + 2 pi j d)``, ``a = 2 T / tau``
-    (the window's power spectrum): about 0.8 between neighbouring lines for a window ending
-    at 1% of its start (``a = 2 ln 100``), decaying as ``1/d``.  Independent lines (None)
-    without the window.
-
-    Parameters
-    ----------
-    freq : ndarray, shape (nf,)
-        The lines (Hz), spaced ``df`` (their median spacing).
-    tau : float or None
-        Time constant of the window (s).
-
-    Returns
-    -------
-    ndarray, shape (2 nf - 1,) or None
-        ``rho(d)`` for ``d = -(nf - 1) .. nf - 1``.
-    """
-    if tau is None or freq.size < 2:
-        return None
-    a = 2.0 / (float(tau) * float(np.median(np.diff(freq))))
-    d = np.arange(-(freq.size - 1), freq.size)
-    return a / (a + 2j * np.pi * d)
-
-
-def _noise_times(X, sig, rho):
-    """``Sigma_c X_c`` per channel: ``X`` (2nf, p, m) stacked ``[Re; Im]`` columns, ``sig``
-    (nf, m) the noise's standard deviation per line (``E|n|^2 = sig^2``), ``rho`` the
-    correlation between lines (:func:`line_correlation`, None: independent).  The noise is
-    circular, ``E[n_k n_l^*] = sig_k sig_l rho(k - l)``, ``E[n_k n_l] = 0``: in stacked
-    form ``Sigma X = [Re; Im] of (sig C (sig z)) / 2`` with ``z = X_re + j X_im``."""
-    nf = X.shape[0] // 2
-    if rho is None:
-        w2 = 0.5 * sig**2
-        return X * np.vstack([w2, w2])[:, None, :]
-    from scipy.signal import fftconvolve
-
-    z = (X[:nf] + 1j * X[nf:]) * sig[:, None, :]
-    cz = fftconvolve(z, rho[:, None, None], axes=0)[nf - 1:2 * nf - 1]
-    cz *= 0.5 * sig[:, None, :]
-    return np.concatenate([cz.real, cz.imag])
 
 
 #: relative eigenvalue of ``J^T J`` below which its direction is not determined by the data

@@ -81,7 +81,7 @@ def n_per_pole(model: str) -> int:
 
 
 def basis(lam: np.ndarray, s: np.ndarray, k: int, model: str = "complex",
-          asymptotic: tuple[bool, bool] = (True, True)) -> np.ndarray:
+          asymptotic: tuple[bool, bool] = (True, True), weight=None) -> np.ndarray:
     """Complex pole basis ``Phi`` (nf, p) of (3.15) times ``s^k`` (measured quantity).
 
     Columns: two per pole (``g1``, ``g2``) for ``model="complex"``, one per pole for
@@ -100,6 +100,9 @@ def basis(lam: np.ndarray, s: np.ndarray, k: int, model: str = "complex",
         Complex-mode (3.7) or real-mode (3.9) parametrisation.
     asymptotic : (bool, bool)
         Whether to append the ``E`` and ``F`` columns.
+    weight : ndarray, shape (nf,), optional
+        Weight of each line (:mod:`~sdctrl.identification._line_weights`): the rows are
+        multiplied by it, as the data's are.
 
     Returns
     -------
@@ -124,7 +127,7 @@ def basis(lam: np.ndarray, s: np.ndarray, k: int, model: str = "complex",
         Phi[:, i] = 1.0 / s**2
     if k:
         Phi = Phi * (s**k)[:, None]
-    return Phi
+    return Phi if weight is None else Phi * weight[:, None]
 
 
 def basis_derivative(lam: complex, w: float, z: float, s: np.ndarray, k: int,
@@ -168,7 +171,7 @@ def basis_derivative(lam: complex, w: float, z: float, s: np.ndarray, k: int,
 
 
 def basis_derivatives(lam: np.ndarray, w: np.ndarray, z: np.ndarray, s: np.ndarray, k: int,
-                      model: str = "complex") -> np.ndarray:
+                      model: str = "complex", weight=None) -> np.ndarray:
     """:func:`basis_derivative` for several poles at once.
 
     Parameters
@@ -183,6 +186,8 @@ def basis_derivatives(lam: np.ndarray, w: np.ndarray, z: np.ndarray, s: np.ndarr
         Power of ``s`` of the measured quantity.
     model : {"complex", "real"}
         Parametrisation (3.7) or (3.9).
+    weight : ndarray, shape (nf,), optional
+        Weight of each line (as :func:`basis`).
 
     Returns
     -------
@@ -201,7 +206,7 @@ def basis_derivatives(lam: np.ndarray, w: np.ndarray, z: np.ndarray, s: np.ndarr
         g = (da * b + a * db)[..., None]
     if k:
         g = g * (s**k)[None, :, None, None]
-    return g
+    return g if weight is None else g * weight[None, :, None, None]
 
 
 class LSQ:

@@ -65,12 +65,16 @@ class PoleProblem:
         Whether the basis carries ``E`` and ``F/s^2``.
     bar : progress bar, optional
         Updated once per evaluation.
+    weight : ndarray, shape (nf,), optional
+        Weight of each line, already applied to ``Y`` (:mod:`._line_weights`): every basis
+        on these lines is weighted alike.
     """
 
-    def __init__(self, Y, s, k, model, asymptotic, bar=None):
+    def __init__(self, Y, s, k, model, asymptotic, bar=None, weight=None):
         # unit-norm data: the cost is relative, so optimiser tolerances are scale-free
         self.Y = Y / np.sqrt(max(float(np.sum(Y**2)), 1e-300))
         self.s, self.k, self.model, self.asym = s, k, model, asymptotic
+        self.weight = weight
         self.normY2 = float(np.sum(self.Y**2))
         self.npp = n_per_pole(model)
         self.bar = bar
@@ -102,7 +106,7 @@ class PoleProblem:
         n = x.size // 2
         w, z = np.exp(x[:n]), np.exp(x[n:])
         lam = pole_from_params(w, z)
-        Phi = basis(lam, self.s, self.k, self.model, self.asym)
+        Phi = basis(lam, self.s, self.k, self.model, self.asym, self.weight)
         lsq = LSQ(Phi)
         QtY = lsq.Q.T @ self.Y
         r = self.Y - lsq.Q @ QtY
@@ -131,7 +135,7 @@ class PoleProblem:
             return
         poles_needed = np.unique(par % n)
         deriv = basis_derivatives(lam[poles_needed], w[poles_needed], z[poles_needed],
-                                  self.s, self.k, self.model)      # (2, nf, needed, npp)
+                                  self.s, self.k, self.model, self.weight)   # (2, nf, ., npp)
         D = stack(deriv[par // n, :, np.searchsorted(poles_needed, par % n)]
                   .transpose(1, 0, 2).reshape(self.s.size, P * npp))
         crow = (par % n)[:, None] * npp + np.arange(npp)[None, :]            # (P, npp)
@@ -174,7 +178,7 @@ class SubProblem:
         self.only = self.free[:m]
         fixed = np.setdiff1d(np.arange(n), self.only)
         lam_f = pole_from_params(np.exp(x_full[fixed]), np.exp(x_full[n + fixed]))
-        A = stack(basis(lam_f, prob.s, prob.k, prob.model, prob.asym))
+        A = stack(basis(lam_f, prob.s, prob.k, prob.model, prob.asym, prob.weight))
         scale = np.linalg.norm(A, axis=0)
         scale[scale == 0] = 1.0
         if A.shape[1]:
@@ -212,7 +216,7 @@ class SubProblem:
         m = xs.size // 2
         w, z = np.exp(xs[:m]), np.exp(xs[m:])
         lam = pole_from_params(w, z)
-        A = stack(basis(lam, prob.s, prob.k, prob.model, (False, False)))
+        A = stack(basis(lam, prob.s, prob.k, prob.model, (False, False), prob.weight))
         scale = np.linalg.norm(A, axis=0)
         scale[scale == 0] = 1.0
         A = A / scale
@@ -226,7 +230,8 @@ class SubProblem:
         prob.nfev += 1
         if prob.bar is not None:
             prob.bar.update(1)
-        deriv = basis_derivatives(lam, w, z, prob.s, prob.k, prob.model)  # (2, nf, m, npp)
+        deriv = basis_derivatives(lam, w, z, prob.s, prob.k, prob.model,
+                                  prob.weight)                   # (2, nf, m, npp)
         D = stack(deriv.transpose(1, 0, 2, 3).reshape(prob.s.size, 2 * m * npp))
         Cp = np.concatenate([Cn, Cn])                  # rows of param a: pole a % m
         Dr = D.T @ r

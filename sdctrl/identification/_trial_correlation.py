@@ -8,7 +8,7 @@ i (w_0 + i dw)``, has basis functions (3.15) whose inner products with a column
 ``B_i = sum_l conj(1 / (s_l - conj(lambda_i))) u'_l = sum_l u'_l / (sigma - i (2 w_0 +
 dw (i + l)))``,
 
-with ``u' = conj(s^k) u`` (measured quantity): ``A`` is a convolution in ``i - l``, ``B``
+with ``u' = conj(s^k) w u`` (measured quantity, ``w`` the line weight): ``A`` is a convolution in ``i - l``, ``B``
 in ``i + l``, both exact and computed for every line at once by FFT, in ``O(nf log nf)``
 per column instead of ``O(nf)`` per trial and column.  For the complex-mode pair of
 columns ``g1 = (a + b) s^k``, ``g2 = i (a - b) s^k``: ``g1 . y = Re(A + B)``,
@@ -62,9 +62,11 @@ class TrialCorrelations:
         Parametrisation (two or one columns per pole).
     columns : sequence of ndarray, shape (2 nf, m_j)
         Real stacked data column sets (e.g. the residual and the current basis ``Q``).
+    weight : ndarray, shape (nf,), optional
+        Weight of each line of the trial columns (the search's, ``PoleProblem.weight``).
     """
 
-    def __init__(self, grid, s, k, model, columns):
+    def __init__(self, grid, s, k, model, columns, weight=None):
         from scipy.fft import fft, next_fast_len
 
         self.w0, self.dw = grid
@@ -72,6 +74,7 @@ class TrialCorrelations:
         self.model = model
         self.N = next_fast_len(3 * nf - 2)
         sk = np.conj(s**k) if k else np.ones(nf)
+        sk = sk if weight is None else sk * weight
         self.sizes = [c.shape[1] for c in columns]
         U = np.concatenate([c[:nf] + 1j * c[nf:] for c in columns], axis=1) * sk[:, None]
         self.Uf = fft(U, self.N, axis=0)
