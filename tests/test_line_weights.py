@@ -146,3 +146,16 @@ def test_windowed_data_and_the_default_are_not_weighted(tmp_path):
     assert sd.load(path).search.weighting == "level"
     with pytest.raises(ValueError, match="weighting"):
         sd.identify(frf, weighting="lines", progress=False)
+
+
+@pytest.mark.parametrize("scale", [3.0, 1e160, 1e-155])
+def test_weighted_fit_does_not_depend_on_the_scale_of_h(scale):
+    """The weights are the inverse geometric mean of the levels, normalised: a unit of H
+    changes nothing (poles to 1e-9, residues scaled, the same selection)."""
+    st, frf, cm, _ = _member("plate")
+    scaled = sd.FRF(frf.freq, frf.H * scale, quantity=frf.quantity, sensors=frf.sensors,
+                    actuators=frf.actuators, collocated=frf.collocated)
+    cs = _fit(scaled)
+    assert cs.n == cm.n and cs.search.weighting == "level"
+    assert np.max(np.abs(cs.poles / cm.poles - 1)) < 1e-9
+    assert np.max(np.abs(cs.residues / scale - cm.residues)) < 1e-8 * np.max(np.abs(cm.residues))
