@@ -100,13 +100,17 @@ def _identify_args(sub) -> None:
                    help="frequency band in Hz (default: every line of the file)")
     p.add_argument("--out", metavar="DIR",
                    help="output folder (default: DATA without extension + '-sdctrl')")
+    p.add_argument("--weighting", choices=("none", "level"), default="none",
+                   help="weight of each line in the fit (sd.identify's weighting): 'level' "
+                        "for lines of very different levels, e.g. displacement FRFs")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
 def _identify_run(args) -> int:
     from sdctrl.demo import identify_report
 
-    return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet)
+    return identify_report(args.path, band=args.band, out=args.out, quiet=args.quiet,
+                           weighting=args.weighting)
 
 
 def _info_args(sub) -> None:

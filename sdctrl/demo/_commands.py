@@ -305,7 +305,7 @@ class _Data:
 
 
 def identify_report(path: str, band=None, out: str | None = None, quiet: bool = False,
-                    progress: bool | None = None) -> int:
+                    progress: bool | None = None, weighting: str = "none") -> int:
     """Identify the modes of a user's test: terminal table, HTML report, saved models.
 
     Parameters
@@ -321,6 +321,8 @@ def identify_report(path: str, band=None, out: str | None = None, quiet: bool = 
         Print nothing.
     progress : bool, optional
         Progress bars (default: :mod:`sdctrl.config` policy).
+    weighting : {"none", "level"}
+        Weight of each line in the fit (:func:`sdctrl.identify`).
 
     Returns
     -------
@@ -337,7 +339,8 @@ def identify_report(path: str, band=None, out: str | None = None, quiet: bool = 
     log = StepLog(3 if frf.collocated else 2, quiet)
     log.say(f"sdctrl identify {path}: report in {out}/")
     log.run("data", "data", _Data, frf, path)
-    ident = log.run("identification", "identification", identify_test, frf, progress=progress)
+    ident = log.run("identification", "identification", identify_test, frf, progress=progress,
+                    weighting=weighting)
     nm = None
     if ident is not None:
         if not quiet:

@@ -104,8 +104,10 @@ class Identification:
 
         cm, frf = self.cm, self.frf
         s = doc.section("identification", "Identification: complex modes, no initial guess")
+        how = ("" if cm.search is None or cm.search.weighting in (None, "none") else
+               f", weighting={cm.search.weighting!r}")
         s.paragraph(
-            f"`sd.identify(frf)` (chapter III) fits all {len(frf.sensors)} x "
+            f"`sd.identify(frf{how})` (chapter III) fits all {len(frf.sensors)} x "
             f"{len(frf.actuators)} FRFs with common poles: LSCF poles stable over three model "
             f"orders and peaks as a start, then variable projection on the poles, residues by "
             f"linear least squares, removal of poles that fit noise and search of the "
@@ -159,7 +161,8 @@ def _most_complex(cm):
     return int(idx[int(np.nanargmax(disp))])
 
 
-def identify_test(frf, band=None, truth=None, progress: bool | None = None) -> Identification:
+def identify_test(frf, band=None, truth=None, progress: bool | None = None,
+                  weighting: str = "none") -> Identification:
     """Step 2: complex modes of a test, no initial poles.
 
     Parameters
@@ -172,6 +175,8 @@ def identify_test(frf, band=None, truth=None, progress: bool | None = None) -> I
         True poles (rad/s) to compare with.
     progress : bool, optional
         Progress bar policy (see :mod:`sdctrl.config`).
+    weighting : {"none", "level"}
+        Weight of each line in the fit (:func:`sdctrl.identify`).
 
     Returns
     -------
@@ -181,7 +186,7 @@ def identify_test(frf, band=None, truth=None, progress: bool | None = None) -> I
 
     if band is not None:
         frf = frf.band(*band)
-    cm = identify(frf, progress=progress)
+    cm = identify(frf, progress=progress, weighting=weighting)
     if truth is not None:
         lo, hi = frf.freq[0], frf.freq[-1]
         f = np.abs(truth) / (2 * np.pi)
