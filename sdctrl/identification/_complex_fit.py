@@ -243,8 +243,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
         p_guess = npp * (w0.size + 6) + sum(asym)
         rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
-        cw = channel_weights(Hm) if auto and selection_rules(data).smooth_scan else None
-        lw = line_weights(Hm) if _level_weighted(weighting, data) else None
+        rules = selection_rules(data)
+        cw, lw = _weights(Hm, rules, auto, weighting)
         Y, V, rank, residual = _searched_data(Hm, cw, lw, rank, seed)
         info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
                 "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
@@ -265,7 +265,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
             if auto:
                 sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
                                     min_bandwidth, zeta_max, significance, messages.append,
-                                    _noise_shape(data, Hm, V, cw, lw), rules=selection_rules(data),
+                                    _noise_shape(data, Hm, V, cw, lw), rules=rules,
                                     collocated=CollocatedResidues.of(data, Hm, prob))
                 w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
                 if not np.any(side == 0):
@@ -415,11 +415,14 @@ def _given_poles(poles, in_band, fband):
     return w0, z0, side
 
 
-def _level_weighted(weighting, data) -> bool:
-    """Whether the lines are weighted (:mod:`._line_weights`): asked for, and the data's
-    noise is independent between lines (no exponential window; the rules' smooth scan)."""
-    return (weighting == "level" and data.exponential_tau is None
-            and selection_rules(data).smooth_scan)
+def _weights(Hm, rules, auto, weighting):
+    """Channel weights (automatic selection) and line weights (``weighting="level"``) of the
+    search, each None where not applied: both only for data whose noise is independent
+    between lines (``rules.smooth_scan``: no exponential window)."""
+    if not rules.smooth_scan:
+        return None, None
+    return (channel_weights(Hm) if auto else None,
+            line_weights(Hm) if weighting == "level" else None)
 
 
 def _searched_data(Hm, cw, lw, rank, seed):
