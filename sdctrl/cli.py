@@ -100,9 +100,10 @@ def _identify_args(sub) -> None:
                    help="frequency band in Hz (default: every line of the file)")
     p.add_argument("--out", metavar="DIR",
                    help="output folder (default: DATA without extension + '-sdctrl')")
-    p.add_argument("--weighting", choices=("none", "level"), default="none",
-                   help="weight of each line in the fit (sd.identify's weighting): 'level' "
-                        "for lines of very different levels, e.g. displacement FRFs")
+    p.add_argument("--weighting", choices=("auto", "none", "level"), default="auto",
+                   help="weight of each line in the fit (sd.identify's weighting): 'auto' "
+                        "(default) fits unweighted and level-weighted and keeps the fit "
+                        "closer to the data; 'none' or 'level' for one of them")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 

@@ -176,7 +176,7 @@ def test_one_blas_thread_for_the_whole_call(monkeypatch):
     and the caller's setting is restored."""
     from threadpoolctl import threadpool_info, threadpool_limits
 
-    from sdctrl.identification import _complex_fit as fit
+    from sdctrl.identification import _fit_pass as fit
 
     seen = []
 

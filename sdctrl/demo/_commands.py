@@ -305,7 +305,7 @@ class _Data:
 
 
 def identify_report(path: str, band=None, out: str | None = None, quiet: bool = False,
-                    progress: bool | None = None, weighting: str = "none") -> int:
+                    progress: bool | None = None, weighting: str = "auto") -> int:
     """Identify the modes of a user's test: terminal table, HTML report, saved models.
 
     Parameters
@@ -321,7 +321,7 @@ def identify_report(path: str, band=None, out: str | None = None, quiet: bool = 
         Print nothing.
     progress : bool, optional
         Progress bars (default: :mod:`sdctrl.config` policy).
-    weighting : {"none", "level"}
+    weighting : {"auto", "none", "level"}
         Weight of each line in the fit (:func:`sdctrl.identify`).
 
     Returns

@@ -106,6 +106,9 @@ class Identification:
         s = doc.section("identification", "Identification: complex modes, no initial guess")
         how = ("" if cm.search is None or cm.search.weighting in (None, "none") else
                f", weighting={cm.search.weighting!r}")
+        both = None if cm.search is None else cm.search.weighting_logls
+        if both is not None:
+            how = ""
         s.paragraph(
             f"`sd.identify(frf{how})` (chapter III) fits all {len(frf.sensors)} x "
             f"{len(frf.actuators)} FRFs with common poles: LSCF poles stable over three model "
@@ -114,6 +117,10 @@ class Identification:
             f"residual for missed modes. Result: {self.poles.size} modes in the band and "
             f"{int((~cm.in_band).sum())} out-of-band poles absorbing the modes beyond its "
             f"edges; relative fit error {cm.cost:.2%}.")
+        if both is not None:
+            s.paragraph(f"Lines weighted: {cm.search.weighting!r}, the fit closer to the data "
+                        f"of the two (mean logLS {both[0]:.3g} unweighted, {both[1]:.3g} with "
+                        "each line weighted by the inverse of its level).")
         s.key_numbers(self.checks())
         if self.truth is not None:
             s.markdown(modes_table(self.poles, self.truth[_match(self.poles, self.truth)]))
@@ -162,7 +169,7 @@ def _most_complex(cm):
 
 
 def identify_test(frf, band=None, truth=None, progress: bool | None = None,
-                  weighting: str = "none") -> Identification:
+                  weighting: str = "auto") -> Identification:
     """Step 2: complex modes of a test, no initial poles.
 
     Parameters
@@ -175,7 +182,7 @@ def identify_test(frf, band=None, truth=None, progress: bool | None = None,
         True poles (rad/s) to compare with.
     progress : bool, optional
         Progress bar policy (see :mod:`sdctrl.config`).
-    weighting : {"none", "level"}
+    weighting : {"auto", "none", "level"}
         Weight of each line in the fit (:func:`sdctrl.identify`).
 
     Returns

@@ -33,29 +33,18 @@ import numpy as np
 
 from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
-from sdctrl._lib.validate import QUANTITY_POWER, as_array
-from sdctrl.identification._compression import channel_weights, compressed_data
-from sdctrl.identification._far_terms import CollocatedResidues
-from sdctrl.identification._final_fit import FitSpec, final_model
-from sdctrl.identification._initial import (
-    initial_candidates,
-    lscf_candidates,
-    peak_set,
-    scaled,
-)
-from sdctrl.identification._line_weights import line_weights
-from sdctrl.identification._residues import n_per_pole
-from sdctrl.identification._search import ZETA_MAX, ZETA_MIN, PoleProblem, search_poles
+from sdctrl._lib.validate import as_array
+from sdctrl.identification._fit_pass import PassOptions, fit_pass
+from sdctrl.identification._line_weights import WEIGHTINGS, kept_pass, passes_to_run
 from sdctrl.identification._rules import selection_rules
-from sdctrl.identification._selection import AutoSelection
-from sdctrl.identification._quality import assessed
+from sdctrl.identification._search import ZETA_MAX, ZETA_MIN
 
 __all__ = ["IdentificationWarning", "identify"]
 
 
-#: default weighting of the lines (:func:`identify`; "level" measured, not yet the default:
-#: module notes of :mod:`~sdctrl.identification._line_weights`)
-WEIGHTING = "none"
+#: default weighting of the lines (:func:`identify`): both fits, the one closer to the data
+#: kept (:mod:`~sdctrl.identification._line_weights`)
+WEIGHTING = "auto"
 
 
 class IdentificationWarning(UserWarning):
@@ -172,13 +161,19 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         :mod:`sdctrl.identification._noise`.
     seed : int, optional
         Seed of the randomised range finder (results are deterministic given a seed).
-    weighting : {"none", "level"}
+    weighting : {"auto", "none", "level"}
         Weight of each line in the fit: ``"none"`` (every line alike: the lines at
-        resonances dominate), or ``"level"``, the inverse of its level across the channels
+        resonances dominate), ``"level"``, the inverse of its level across the channels
         (the least squares become the logLS cost 3.12 linearised, the maximum-likelihood
         fit of noise relative to the response; :mod:`~sdctrl.identification._line_weights`),
-        applied to data whose noise is independent between lines (not through an
-        exponential window).  What was applied: ``cm.search.weighting``.
+        or ``"auto"`` (default): both fits, the one whose mean logLS against the data is
+        the lower kept (each wins on some tests: the weighted one fits the tails of modes
+        outside the band, near-null channels and displacement data, the unweighted one
+        where the loud lines of the resonances carry the information).  Weighting applies
+        to data whose noise is independent between lines (not through an exponential
+        window: there, one unweighted fit).  What was applied: ``cm.search.weighting``;
+        with ``"auto"``, both fits' logLS: ``cm.search.weighting_logls``.  Warnings are
+        those of the fit kept.
     progress : bool, optional
         Show a progress bar; None (default) follows ``sdctrl.config.progress`` (bars only
         on a terminal or in a notebook).
@@ -226,94 +221,35 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     """
     max_iter = _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
                               significance)
-    if weighting not in ("level", "none"):
-        raise ValueError(f"weighting must be 'level' or 'none', got {weighting!r}")
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
     fband, data, shown = _band(frf, band)
-    nf = data.freq.size
-    asym = (True, True) if asymptotic else (False, False)
-    npp = n_per_pole(model)
-    auto = poles is None
+    given = None if poles is None else _given_poles(poles, in_band, fband)
+    opts = PassOptions(given, model, optimizer, bool(asymptotic), compress_rank, max_iter, tol,
+                       min_bandwidth, zeta_max, significance, seed)
     with single_thread():                     # one BLAS policy for the whole call
-        e = _exponent(data.H)
-        Hm = scaled(data.H.reshape(nf, -1), e)
-        if auto:
-            w0, z0, side = peak_set(data, data.freq, Hm.reshape(data.H.shape), fband, e)
-        else:
-            w0, z0, side = _given_poles(poles, in_band, fband)
-        _check_lines(nf, (npp + 2) * w0.size + sum(asym), w0.size)
-        p_guess = npp * (w0.size + 6) + sum(asym)
-        rank = max(p_guess + 16, 40) if compress_rank is None else int(compress_rank)
         rules = selection_rules(data)
-        cw, lw = _weights(Hm, rules, auto, weighting)
-        Y, V, rank, residual = _searched_data(Hm, cw, lw, rank, seed)
-        info = {"optimizer": optimizer, "model": model, "asymptotic": bool(asymptotic),
-                "compress_rank": int(rank), "lines": int(nf), "channels": int(Hm.shape[1])}
-        if V is not None:
-            info["compression_residual"] = residual
-        if auto:
-            merged = _algebraic(data.freq, Y, fband, (w0, z0, side), zeta_max, info)
-            if 2 * nf >= (npp + 2) * merged[0].size + sum(asym):   # else: the peaks only
-                w0, z0, side, pending = merged
-            else:
-                pending = np.zeros(w0.size, bool)
-        messages = []
-        opts = (fband, optimizer, max_iter, tol)
         bar = progress_bar(desc="identify", unit="eval", enabled=progress)
         try:
-            prob = PoleProblem(Y, 2j * np.pi * data.freq, QUANTITY_POWER[data.quantity],
-                               model, asym, bar, lw)
-            if auto:
-                sel = AutoSelection(prob, data.freq, fband, optimizer, max_iter, tol,
-                                    min_bandwidth, zeta_max, significance, messages.append,
-                                    _noise_shape(data, Hm, V, cw, lw), rules=rules,
-                                    collocated=CollocatedResidues.of(data, Hm, prob))
-                w, z, side = _select(sel, (w0, z0, side, pending), bar, info, messages)
-                if not np.any(side == 0):
-                    raise ValueError(f"frf: no mode found in the band {fband[0]:g}-"
-                                     f"{fband[1]:g} Hz (no significant resonance in the "
-                                     "data; give poles= to fit chosen poles anyway)")
-            else:
-                w, z = _given_search(prob, w0, z0, side, opts, info, messages)
-            info["nfev"] = prob.nfev
+            passes = [_recorded(data, (fband, shown), opts, rules, w, bar)
+                      for w in passes_to_run(weighting, rules)]
         finally:
             bar.close()
-        cm = final_model(data, shown, Hm, (w, z, side), FitSpec(model, asym, lw), info,
-                         messages, e)
-        cm, quality = assessed(cm, data)          # against the data as measured (windowed)
-        cm = _window_corrected(cm, data.exponential_tau, messages)
-    for msg in messages + quality:
-        warnings.warn(msg, IdentificationWarning, stacklevel=2)
+    cm, caught = kept_pass(passes)
+    for w in caught:
+        warnings.warn(w.message, w.category, stacklevel=2)
     return cm
 
 
-def _exponent(H) -> int:
-    """Binary exponent ``e`` the data are scaled by (``H 2^-e``, exact) so that their
-    largest entry is near 1 when it lies outside ``[2^-300, 2^300]`` (identification does
-    not depend on the scale of ``H``: squares of ``1e160`` or ``1e-160`` would overflow or
-    underflow); 0 otherwise."""
-    big = float(np.max(np.abs(H))) if H.size else 0.0
-    if big == 0:
-        raise ValueError("frf.H is identically zero in the band")
-    e = int(np.frexp(big)[1])
-    return e if abs(e) > 300 else 0
-
-
-def _check_lines(nf, n_par, n_poles):
-    if 2 * nf < n_par or nf < 3:
-        raise ValueError(f"frf: the band has {nf} frequency lines, fewer than needed for the "
-                         f"{n_par} real parameters per channel of {n_poles} poles "
-                         f"(need 2 * n_lines >= parameters)")
-
-
-def _algebraic(freq, Y, fband, peaks, zeta_max, info):
-    """Peak candidates merged with the stable LSCF poles (and which peaks are pending);
-    the LSCF poles of every order go to ``info["stabilisation"]`` (then the model's field)."""
-    w0, z0, side = peaks
-    w_l, z_l, stab = lscf_candidates(freq, Y, fband, int(np.count_nonzero(side == 0)),
-                                     zeta_max)
-    info["stabilisation"] = stab
-    df = float(np.median(np.diff(freq))) if freq.size > 1 else 1.0
-    return initial_candidates(w_l, z_l, w0, z0, side, df)
+def _recorded(data, bands, opts, rules, weighting, bar):
+    """One pass (:func:`~sdctrl.identification._fit_pass.fit_pass`) with the warnings it
+    gives recorded (warned by :func:`identify` for the pass it keeps): ``(cm, warnings)``."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        cm, messages = fit_pass(data, bands, opts, rules, weighting, bar)
+        for msg in messages:
+            warnings.warn(msg, IdentificationWarning, stacklevel=2)
+    return cm, list(caught)
 
 
 def _check_options(frf, model, optimizer, max_iter, tol, min_bandwidth, zeta_max,
@@ -359,27 +295,6 @@ def _band(frf, band):
     return fband, data, fband if band is None else band
 
 
-def _window_corrected(cm, tau, messages):
-    """Poles corrected for an exponential window ``exp(-t/tau)`` of the data: the window
-    shifted every pole by ``-1/tau`` (the FRF of ``h(t) exp(-t/tau)`` is ``H(s + 1/tau)``),
-    so ``real += 1/tau``; residues are unchanged.  A pole whose decay the window accounts
-    for entirely is kept at the damping floor and named."""
-    from dataclasses import replace
-
-    if tau is None:
-        return cm
-    lam = cm.poles + 1.0 / tau
-    floor = -ZETA_MIN * np.abs(lam)
-    low = ~(lam.real < floor)
-    if np.any(low):
-        messages.append("exponential window: the decay of the poles at " + ", ".join(
-            f"{v:.4g} Hz" for v in np.abs(lam[low]) / (2 * np.pi)) + f" is below the window's "
-            f"1/tau = {1 / tau:.4g} rad/s (damping not determined by the data); kept at "
-            f"damping {ZETA_MIN:g}: use a longer record or a weaker window")
-        lam = np.where(low, floor + 1j * lam.imag, lam)
-    return replace(cm, poles=lam, exponential_tau=tau)
-
-
 def _given_poles(poles, in_band, fband):
     """``(w rad/s, z, side)`` of user-given poles, validated against the band."""
     lam0 = as_array(poles, "poles", ndim=(0, 1), dtype=complex).reshape(-1)
@@ -413,70 +328,3 @@ def _given_poles(poles, in_band, fband):
     if np.any((side != 0) & (f0 >= fband[0]) & (f0 <= fband[1])):
         raise ValueError("in_band: poles marked out of band must lie outside the band")
     return w0, z0, side
-
-
-def _weights(Hm, rules, auto, weighting):
-    """Channel weights (automatic selection) and line weights (``weighting="level"``) of the
-    search, each None where not applied: both only for data whose noise is independent
-    between lines (``rules.smooth_scan``: no exponential window)."""
-    if not rules.smooth_scan:
-        return None, None
-    return (channel_weights(Hm) if auto else None,
-            line_weights(Hm) if weighting == "level" else None)
-
-
-def _searched_data(Hm, cw, lw, rank, seed):
-    """The pole search's data: ``Hm`` weighted by channel (``cw``) and by line (``lw``),
-    compressed (:func:`compressed_data`), and the relative part the compression leaves out
-    (of the unweighted data's norm without line weights, as before them)."""
-    Hs = Hm if cw is None else Hm * cw
-    Hs = Hs if lw is None else Hs * lw[:, None]
-    Y, V, rank = compressed_data(Hs, rank, seed)
-    ref = Hm if lw is None else Hs
-    n2 = float(np.sum(ref.real**2) + np.sum(ref.imag**2))
-    return Y, V, rank, float(max(n2 - float(np.sum(Y**2)), 0) / n2)
-
-
-def _noise_shape(data, Hm, V, cw=None, lw=None):
-    """Point variance (3.59), up to a scale, on the search's (weighted) data columns (None
-    without coherence)."""
-    if data.coherence is None:
-        return None
-    pv = np.abs(Hm) ** 2 * (1.0 - data.coherence.reshape(Hm.shape))
-    pv = pv if cw is None else pv * cw**2
-    pv = pv if lw is None else pv * lw[:, None] ** 2
-    return pv if V is None else pv @ V**2
-
-
-def _select(sel, start, bar, info, messages):
-    """Automatic selection; Ctrl-C returns the last complete fit, flagged in ``info``."""
-    w0, z0, side, pending = start
-    try:
-        w, z, side, _ev, sinfo = sel.run(w0, z0, side, bar, pending=pending)
-    except KeyboardInterrupt:
-        if sel.best is None:
-            raise
-        w, z, side, _ev, sinfo = sel.best
-        info["interrupted"] = True
-        messages.append("interrupted: returning the last complete fit")
-    info["log"] = sel.log
-    _search_info(sinfo, info, messages)
-    return w, z, side
-
-
-def _given_search(prob, w0, z0, side, opts, info, messages):
-    """Pole search from the given poles; poles pushed to a bound are reported."""
-    fband, optimizer, max_iter, tol = opts
-    w, z, sinfo = search_poles(prob, w0, z0, side, fband, optimizer, max_iter, tol)
-    if np.any(sinfo.get("at_bound", [])):
-        messages.append("poles at a bound of the search (frequency or damping limit): "
-                        + ", ".join(f"{x:.4g} Hz" for x in
-                                    (w[sinfo['at_bound']] / (2 * np.pi))))
-    _search_info(sinfo, info, messages)
-    return w, z
-
-
-def _search_info(sinfo, info, messages):
-    info["search"] = {kk: vv for kk, vv in sinfo.items() if kk != "at_bound"}
-    if not sinfo.get("converged", True):
-        messages.append(f"pole search did not converge: {sinfo.get('message', '')}")

@@ -77,6 +77,10 @@ class SearchDiagnostics(FrozenState):
         How the lines were weighted in the fit (:mod:`~sdctrl.identification._line_weights`):
         ``"level"`` (each line by its level across the channels, the logLS cost 3.12
         linearised) or ``"none"`` (None: a model from before the option).
+    weighting_logls : (float, float) or None
+        With ``weighting="auto"`` on data whose lines may be weighted: the mean logLS
+        against the data of the unweighted and of the level-weighted fit; the lower was
+        kept (None: one fit only).
     """
 
     optimizer: str | None = None
@@ -94,6 +98,7 @@ class SearchDiagnostics(FrozenState):
     rcond: float | None = None
     logls: float | None = None
     weighting: str | None = None
+    weighting_logls: tuple | None = None
 
     def __post_init__(self):
         freeze_arrays(self)

@@ -42,7 +42,7 @@ from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
 from sdctrl.identification._rules import INDEPENDENT, SelectionRules
 from sdctrl.identification._search import OUT_FACTOR, search_poles
-from sdctrl.identification._travel import alone, filler, travel
+from sdctrl.identification._travel import filler, scanned, travel
 from sdctrl.identification._zoom import sole_poles, zoom_candidates
 
 __all__ = ["PROBE_EVALS", "RESOLVED_STD", "AutoSelection"]
@@ -98,7 +98,7 @@ class AutoSelection:
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log, self.warn, self.tried, self.best = [], warn, [], None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
-        self.zoomed, self.travelled, self.alone = set(), set(), set()   # (_zoom, _travel)
+        self.zoomed, self.travelled, self.alone, self.scanned_from = set(), set(), set(), set()
 
     def fit(self, w, z, side, only=None):
         """Pole search from ``(w, z)``.
@@ -470,7 +470,7 @@ class AutoSelection:
             # missed in-band modes: add at residual peaks, keep the significant ones;
             # a round whose candidates were all rejected ends the search
             cand = self.missed(w, z, ev)
-            new = alone(self, state, cand) or self._close_modes(state)
+            new = scanned(self, state, cand)
             if new is None:
                 break
             state = self.best = new
