@@ -64,7 +64,9 @@ def test_noisy_ladder_keeps_the_most_damped_modes_only():
     dashpots couple out of band (z = 8.6, 9.6, 5.7; the next is 2.2), and, since close modes
     are judged together, that of 79.9 Hz, close to 78.4 Hz (their contributions correlate by
     0.65 > 1/2)."""
-    frf, cm, nm = _chain("ladder", 0.01)
+    # the mechanism as shown on the unweighted fit (weighting="none"); the default (auto)
+    # keeps the level-weighted fit here, whose residues differ within their noise
+    frf, cm, nm = _chain("ladder", 0.01, "none")
     src, _, _ = _improper(nm)
     assert np.round(cm.frequency[src], 1).tolist() == [23.8, 64.2, 78.4, 79.9]
     e_nm = logls(nm.frf(frf.freq, quantity=frf.quantity).H, frf.H)
@@ -75,7 +77,9 @@ def test_close_modes_improper_parts_are_kept_together():
     """The cluster at 1%: the four blade modes (10.15-10.29 Hz) form one group; the improper
     part of 10.287 Hz is significant (3.8 sigma), the others are not (0.5-0.7 sigma), and all
     four are kept.  Keeping one without the others upsets the cluster's balance."""
-    frf, cm, nm = _chain("cluster", 0.01)
+    # the mechanism as shown on the unweighted fit (weighting="none"); the default (auto)
+    # keeps the level-weighted fit here, whose residues differ within their noise
+    frf, cm, nm = _chain("cluster", 0.01, "none")
     sel = nm.properness.poles_used
     blades = sel[cm.frequency[sel] < 11.0]
     assert blades.size == 4
@@ -121,7 +125,9 @@ def test_close_pair_rows_of_phib_refitted_to_the_frf():
     between N33.x and N41.y; its improper parts are not kept (0.5, 1.0 sigma, summed 2.1), and
     step 6 refits the pair's rows of phib to the identified FRF relative to its level -- those
     two rows only -- bringing the model within the acceptance bound."""
-    frf, cm, nm = _chain("truss", 0.01)
+    # the mechanism as shown on the unweighted fit (weighting="none"); the default (auto)
+    # keeps the level-weighted fit here, whose residues differ within their noise
+    frf, cm, nm = _chain("truss", 0.01, "none")
     sel = nm.properness.poles_used
     Xs, Ys = modal_factors(nm, cm.poles[sel])
     step5 = nm.replace(phib=phib_from_residues(cm.residues[sel], Xs, Ys))
@@ -189,7 +195,9 @@ def test_noise_level_improper_parts_are_kept_only_where_the_logls_rule_needs_the
     """The norm test keeps no part at 1% (within three standard deviations), the logLS rule
     the fewest that bring the normal modes as close to the identified model as it is to the
     data: without the last one they are farther."""
-    frf, cm, nm = _chain(name, 0.01)
+    # the mechanism as shown on the unweighted fit (weighting="none"); the default (auto)
+    # keeps the level-weighted fit here, whose residues differ within their noise
+    frf, cm, nm = _chain(name, 0.01, "none")
     freqs, before, after, target = LOGLS_RULE[name]
     old = sd.normal_modes(cm.replace(search=replace(cm.search, logls=None)), std=False)
     assert old.residual.reasons == (OUT_OF_BAND,) * old.residual.m      # the norm test alone
@@ -242,7 +250,9 @@ def cluster_8_30():
     frf = st.frf(n=400, noise=0.01, seed=1, band=(8.0, 30.0))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cm = sd.identify(frf, progress=False)
+        # unweighted: the case (no out-of-band pole, a blade mode left residual) is that of
+        # the unweighted fit; the level-weighted one finds two poles out of band
+        cm = sd.identify(frf, progress=False, weighting="none")
         nm = sd.normal_modes(cm, std=False)
     return frf, cm, nm
 

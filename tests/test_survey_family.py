@@ -216,8 +216,9 @@ def test_normal_modes_with_complex_residual_dynamics(name):
     fitted below the band absorbs six modes (9.5-18.6 Hz); made proper with the others it
     moves the residues by 39% (``properness.residue_error``) and the model's logLS is 92x
     the identified one's.  cluster: the local resonator (37 Hz) moves at 0.1% of its
-    largest amplitude at the best DOF of the structure, its driving-point residue is noise
-    and every set holding it fails (3.45: mass not positive definite).  Kept as normal
+    largest amplitude at the best DOF of the structure, its driving-point residue was noise
+    and every set holding it failed (3.45: mass not positive definite) -- until a434751,
+    whose fit keeps a pole above the band and makes it proper alone too.  Kept as normal
     modes: the in-band modes that can be made proper one by one."""
     sv, cm = _surveyed(name)
     f = sv.frf.band(*sv.band)
@@ -228,9 +229,11 @@ def test_normal_modes_with_complex_residual_dynamics(name):
             keep[j] = True
         except ValueError as exc:                # named, with the thesis's equation
             assert "(3.45" in str(exc) or "(3.52" in str(exc), exc
-    # measured: truss_high keeps its six in-band modes, cluster all but the resonator
+    # measured: truss_high keeps its six in-band modes; the cluster all five since a434751
+    # (before: all but the resonator, 36.978 Hz; its fit now keeps a pole above the band,
+    # 71.26 Hz, and the resonator's residues are made proper alone)
     assert np.abs(cm.frequency[cm.in_band & ~keep]).tolist() == pytest.approx(
-        {"truss_high": [], "cluster": [36.978]}[name], abs=0.01)
+        {"truss_high": [], "cluster": []}[name], abs=0.01)
     nm = _normal_modes(cm, modes=np.flatnonzero(keep))
     # measured: 0.0017, 0.0035 (one BLAS thread, as the suite runs); the cluster 0.0108 with
     # two: its four blade modes 0.07 Hz apart make the properness fit sensitive to round-off
@@ -390,8 +393,12 @@ def test_a_mode_just_below_the_band_of_a_survey_is_fitted():
 #: the modes just outside the band that the one-pole-per-side windowed rules leave (the
 #: plate's above 62 Hz and below 18.7 Hz at its edges, the cluster's on both sides: no
 #: out-of-band pole is kept there)
+#: the cluster 46.5 -> 2.91 since the automatic selection no longer rescans a pole set it
+#: already scanned (a434751; its windowed survey is fitted unweighted either way): it now
+#: keeps a pole above the band (71.26 Hz) for the tail at the band's top edge, the five
+#: modes' poles within 2e-5 of the truth (before 3.2e-5); below FLOOR_WARN, so silent
 FLOOR_RATIO = {"truss": 1.25, "truss_high": 1.41, "ladder": 2.34, "plate": 5.61,
-               "cluster": 46.5}
+               "cluster": 2.91}
 
 
 @pytest.mark.parametrize("name", FAMILY)
@@ -409,8 +416,8 @@ def test_fit_above_the_noise_floor_is_said(name):
     if said:
         assert f"{ratio:.1f} times the" in said[0] and "noise alone" in said[0]
         assert "the band leaves its tail at the edge" in said[0]
-    if name == "cluster":                        # the band's two edges carry most of it
-        assert "6.008-" in said[0] and "-45 Hz" in said[0]
+    # (the cluster, at 46.5 before, was said with the band's two edges, 6.008- and -45 Hz,
+    # carrying most of it; now silent, the len(said) check above)
 
 
 @pytest.mark.parametrize("name", ["plate", "ladder"])

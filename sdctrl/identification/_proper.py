@@ -225,7 +225,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
             stacklevel=2)
     reasons.update(failed)
     nm = _transform(cm, sel, pairs, tol, maxiter, bool(std), residual=list(reasons), free=free)
-    nm, extra = fitted_to_frf(cm, nm, sel, improper_terms(cm, nm, sel, reasons))   # step 6
+    steps = lambda c: _transform(c, sel, pairs, tol, maxiter, False, free=free)  # noqa: E731
+    nm, extra = fitted_to_frf(cm, nm, sel, improper_terms(cm, nm, sel, reasons),   # step 6
+                              steps)
     extra = closer_parts(cm, nm, sel, reasons, extra)
     return passive_at_pairs(nm.replace(residual=residual_block(cm, reasons, extra)), pairs,
                             cm, passive)                                          # step 8
