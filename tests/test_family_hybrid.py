@@ -269,9 +269,10 @@ def test_cluster_dstrut_gap_is_the_tests_own_floor(weighting):
     on the default's (``sd.identify``'s ``"auto"`` keeps the level-weighted fit there).
 
     Measured on the unweighted fit: 88% of the hybrid's D-strut logLS lies on 4 of the 44
-    channels, the cross-axis hub channels H1.z, H2.z, H4.z, H5.z driven by H3.y, mostly below the cluster
-    (6-9.5 Hz), where the true response (2e-12 m/N at 7 Hz on H5.z) is a cancellation of
-    out-of-band hub-mode terms of 1e-9 to 7e-9 (1 part in 3000).  The identified model's
+    channels, the cross-axis hub channels H1.z, H2.z, H4.z, H5.z driven by H3.y, mostly
+    below the cluster (6-9.5 Hz), where the true response (2e-12 m/N at 7 Hz on H5.z) is
+    a cancellation of out-of-band hub-mode terms of 1e-9 to 7e-9 (1 part in 3000).  The
+    identified model's
     own error there is 0.305 at 1% noise (8e-5 overall noise-free), the hybrid's D-strut
     0.291 (it keeps the test at the tested I/O, ``"tested"``); on every other channel the
     D-strut is 49x better than the wrong FE.  Not the carrier: the mass scale of the two
@@ -342,8 +343,9 @@ def test_cluster_shaker_gap_what_carries_it(weighting):
     """Why the cluster's untested shaker (T1.y) stays below 12x (MEASURED 4.5x noise-free,
     0.064x at 1%; on the unweighted fit 0.08x / 0.10x).
 
-    Measured, noise-free, on the unweighted fit: the remaining shaker H3.y (hub centre) is a near node of the four
-    blade modes (participation 4e-4 against 1.11 at T1.y), so the test without T1.y
+    Measured, noise-free, on the unweighted fit: the remaining shaker H3.y (hub centre)
+    is a near node of the four blade modes (participation 4e-4 against 1.11 at T1.y), so
+    the test without T1.y
     resolves two of them, composites of the true ones (MAC 0.73 and 0.89 with their FE
     pairs, 1.0 with every shaker).  63% of the hybrid's error lies at 11-30 Hz, above the
     cluster, where at the other blades' sensors the four modes' tails must cancel (at 20
