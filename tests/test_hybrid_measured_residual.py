@@ -11,7 +11,8 @@ Here on the ladder (noise-free): its 20.84 Hz mode, whose FE frequency is 1.6% l
 the median pair is 6.7% low, is moved from the normal modes to the residual dynamics as the
 normal-mode step does with a mode it cannot make normal.  Measured: the appended mode at
 20.839 Hz (20.519 Hz, the FE's, before), predictions at three untested inputs 34-39x better
-than the wrong FE (21-23x before).  The family's own models have no such mode (every
+than the wrong FE (21-23x before) on the unweighted fit, 26-39x (17-19x) on the default's
+level-weighted one (:data:`LOCKED_RATIO`).  The family's own models have no such mode (every
 figure of tests/test_family_hybrid.py unchanged).
 """
 
@@ -19,6 +20,7 @@ import functools
 import warnings
 
 import numpy as np
+import pytest
 
 import sdctrl as sd
 from sdctrl.hybrids._measured_residual import measured_appended_w2
@@ -31,12 +33,15 @@ UNTESTED = ("L1.z", "R0.z", "L5.z")
 
 
 @functools.cache
-def _case():
+def _case(weighting=None):
+    """The ladder's hybrid with its 20.84 Hz mode moved to the residual dynamics, from
+    ``sd.identify``'s default fit or the given ``weighting``."""
     st = sd.testbeds.structure("ladder")
     frf = st.frf(n=400)
+    kw = {} if weighting is None else {"weighting": weighting}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cm = sd.identify(frf, progress=False)
+        cm = sd.identify(frf, progress=False, **kw)
         nm = sd.normal_modes(cm, std=False)
     j = int(np.argmin(np.abs(cm.frequency - F0)))
     k = int(np.argmin(np.abs(np.sqrt(np.diag(nm.Omega)) / (2 * np.pi) - F0)))
@@ -71,8 +76,18 @@ def test_the_appended_mode_takes_the_measured_frequency():
     assert np.any(np.abs(h.residual.poles - pole) < 1e-9 * abs(pole))
 
 
-def test_untested_inputs_are_predicted_better():
-    st, _, _, h = _case()
+#: wrong-FE / hybrid logLS at the untested inputs, per identification weighting: measured
+#: 34-39x on the unweighted fit (21-23x with the FE's frequency for the appended mode);
+#: on the default's fit (``"auto"`` keeps the level-weighted one on the noise-free ladder)
+#: 25.6, 26.9, 38.9x (17.4-19.4x with the FE's frequency): the measured frequency gains
+#: 1.4-2x on both, from a lower start on the weighted fit (the family's own ladder shaker,
+#: tests/test_family_hybrid.py, 44.8x -> 43.5x)
+LOCKED_RATIO = {"none": 30.0, None: 24.0}
+
+
+@pytest.mark.parametrize("weighting", ["none", None])
+def test_untested_inputs_are_predicted_better(weighting):
+    st, _, _, h = _case(weighting)
     true, wrong = st.fe(), st.wrong()
     freq = np.linspace(*st.band, 300)
     for u in UNTESTED:
@@ -81,7 +96,7 @@ def test_untested_inputs_are_predicted_better():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             e_h = logls(h.with_io(b=[u]).frf(freq, "acceleration").H, ref)
-        assert e_fe / e_h >= 30, (u, e_fe / e_h)        # measured 34-39x (21-23x before)
+        assert e_fe / e_h >= LOCKED_RATIO[weighting], (u, e_fe / e_h)
 
 
 def test_no_residual_mode_no_change():

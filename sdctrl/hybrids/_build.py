@@ -318,8 +318,8 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
     built = HybridConstruction(pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept),
                                expansion=base.A, mean_damping=zeta_mean,
                                fe_frequency_hz=f_fe)
-    w_top = float(band_lines(nm, np.sqrt(w2_id[kept]))[-1])
-    common = _Common(fe, nm, kept, base, c, loads, zeta_mean, built, w_top, static_b)
+    w_band = band_lines(nm, np.sqrt(w2_id[kept]))
+    common = _Common(fe, nm, kept, base, c, loads, zeta_mean, built, w_band, static_b)
     fits = {}                     # "tested" appends its FE modes as "identified" does
     for res in residuals:
         key = "fe" if res == "fe" else "identified"
@@ -342,7 +342,7 @@ class _Common:
     loads: np.ndarray | None
     zeta: float
     built: HybridConstruction
-    w_top: float
+    w_band: np.ndarray
     static_b: object
 
 
@@ -362,7 +362,7 @@ def _one(cm: _Common, residual: str, fit) -> HybridModel:
     tested = TestedIO(modes.w2, modes.Gamma, c @ modes.shapes + modes.offset, modes.phib,
                       kinds)
     if residual == "tested":
-        cphi, res, built = _keep_tested(nm, built, tested, cm.w_top)
+        cphi, res, built = _keep_tested(nm, built, tested, cm.w_band)
         E, F = None, nm.F
     else:
         cphi, E = realise_residual(tested.cphi, modes.w2, modes.phib, kinds, parts["E"])
@@ -374,10 +374,10 @@ def _one(cm: _Common, residual: str, fit) -> HybridModel:
                        n_static=int(np.sum(kinds == "static")), construction=built)
 
 
-def _keep_tested(nm, built, tested, w_top):
+def _keep_tested(nm, built, tested, w_band):
     """``residual="tested"``: observabilities, residual dynamics and the construction record
     (:func:`sdctrl.hybrids._tested_io.keep_tested`)."""
-    cphi, carried, res = keep_tested(nm, built.absorbed, tested, w_top)
+    cphi, carried, res = keep_tested(nm, built.absorbed, tested, w_band)
     variant = f"tested I/O kept; appended modes as in {built.residual.variant}"
     return cphi, res, replace(built, residual_flexibility=carried, mass_correction=None,
                               residual=replace(built.residual, variant=variant))
