@@ -235,7 +235,7 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
                       for w in passes_to_run(weighting, rules)]
         finally:
             bar.close()
-    cm, caught = kept_pass(passes)
+    cm, caught = kept_pass(passes, data)
     for w in caught:
         warnings.warn(w.message, w.category, stacklevel=2)
     return cm

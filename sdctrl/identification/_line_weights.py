@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["WEIGHTINGS", "kept_pass", "line_weights", "passes_to_run"]
+__all__ = ["WEIGHTINGS", "kept_pass", "line_weights", "misfit", "passes_to_run"]
 
 #: the values of :func:`~sdctrl.identify`'s ``weighting``
 WEIGHTINGS = ("auto", "none", "level")
@@ -91,17 +91,38 @@ def passes_to_run(weighting: str, rules) -> tuple[str, ...]:
     return ("none", "level") if weighting == "auto" else (weighting,)
 
 
-def kept_pass(passes):
-    """Of ``[(cm, caught warnings), ...]`` (one per weighting fitted), the one whose mean
-    logLS against the data (``cm.search.logls``) is the lowest (the first on a tie); with
-    two passes, both figures are recorded on the kept model's
-    ``search.weighting_logls`` (unweighted, weighted)."""
+def kept_pass(passes, data):
+    """Of ``[(cm, caught warnings), ...]`` (one per weighting fitted to ``data``, the band's
+    lines), the one closest to the data (:func:`misfit`; the first on a tie); with two
+    passes, both logLS figures are recorded on the kept model's ``search.weighting_logls``
+    (unweighted, weighted), and where the coherence decided, both of its figures on
+    ``search.weighting_variance``."""
     from dataclasses import replace
+
+    from sdctrl.identification._noise import point_variance
 
     if len(passes) == 1:
         return passes[0]
-    scores = [p[0].search.logls for p in passes]
+    pv = point_variance(data)
+    scores = [misfit(p[0], data, pv) for p in passes]
     best = int(np.argmin(scores))
     cm, caught = passes[best]
-    search = replace(cm.search, weighting_logls=tuple(float(x) for x in scores))
+    logls = tuple(float(p[0].search.logls) for p in passes)
+    by_variance = None if pv is None else tuple(float(x) for x in scores)
+    search = replace(cm.search, weighting_logls=logls, weighting_variance=by_variance)
     return replace(cm, search=search), caught
+
+
+def misfit(cm, data, pv) -> float:
+    """How far ``cm`` is from ``data`` by the noise the data declare: with a coherence below
+    one, the mean of ``|H_fit - H|^2`` over the point variance (3.59) of the lines and
+    channels that have one (the fit's chi-square per entry: the noise of an H1 estimate is
+    not always relative, a floor makes it absolute at antiresonances, where the logLS
+    counts the noise as misfit); without, the mean logLS (3.12, ``cm.search.logls``: the
+    maximum-likelihood measure of noise relative to the response, as the family's).  ``pv``
+    is the data's point variance (``point_variance(data)``, None without a coherence)."""
+    if pv is None:
+        return float(cm.search.logls)
+    H = cm.frf(data.freq, quantity=data.quantity).H
+    live = pv > 0
+    return float(np.mean(np.abs(H - data.H)[live] ** 2 / pv[live]))
