@@ -230,8 +230,13 @@ def test_real_impact_records():
     # without the window's record, identified by the rules of unwindowed data (which add
     # out-of-band poles while significant against second differences; windowed data keep
     # the direct noise field, their lines being correlated)
-    raw = sd.identify(sd.FRF(frf.freq, frf.H, quantity="acceleration",
-                             coherence=frf.coherence), band=band, progress=False)
+    # (unweighted: the windowed data are fitted once, unweighted -- their lines are
+    # correlated -- and the comparison is of the window's correction, not of the weighting.
+    # The default, weighting="auto", weights these unmarked data, whose lines it takes for
+    # independent: 28 poles in the band, misfit over the point variance 0.14 against 13.8
+    # unweighted -- below the noise the coherence declares; no truth to judge it by)
+    unmarked = sd.FRF(frf.freq, frf.H, quantity="acceleration", coherence=frf.coherence)
+    raw = sd.identify(unmarked, band=band, progress=False, weighting="none")
     inb, rin = a.in_band, raw.in_band
     assert a.n == np.sum(inb) == np.sum(rin) == 12            # measured: 12 in band
     assert raw.n - np.sum(rin) <= 1

@@ -117,10 +117,14 @@ class Identification:
             f"residual for missed modes. Result: {self.poles.size} modes in the band and "
             f"{int((~cm.in_band).sum())} out-of-band poles absorbing the modes beyond its "
             f"edges; relative fit error {cm.cost:.2%}.")
+        var = None if cm.search is None else cm.search.weighting_variance
         if both is not None:
+            by = (f"mean logLS {both[0]:.3g} unweighted, {both[1]:.3g}" if var is None else
+                  f"misfit over the coherence's point variance {var[0]:.3g} unweighted, "
+                  f"{var[1]:.3g}")
             s.paragraph(f"Lines weighted: {cm.search.weighting!r}, the fit closer to the data "
-                        f"of the two (mean logLS {both[0]:.3g} unweighted, {both[1]:.3g} with "
-                        "each line weighted by the inverse of its level).")
+                        f"of the two ({by} with each line weighted by the inverse of its "
+                        "level).")
         s.key_numbers(self.checks())
         if self.truth is not None:
             s.markdown(modes_table(self.poles, self.truth[_match(self.poles, self.truth)]))

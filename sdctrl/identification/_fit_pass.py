@@ -84,7 +84,8 @@ def fit_pass(data, bands, opts: PassOptions, rules, weighting: str, bar):
     if V is not None:
         info["compression_residual"] = residual
     if auto:
-        merged = _algebraic(data.freq, Y, fband, (w0, z0, side), opts.zeta_max, info)
+        merged = _algebraic(data.freq, Y if lw is None else Y / np.tile(lw, 2)[:, None],
+                            fband, (w0, z0, side), opts.zeta_max, info)
         if 2 * nf >= (npp + 2) * merged[0].size + sum(asym):   # else: the peaks only
             w0, z0, side, pending = merged
         else:
@@ -134,7 +135,11 @@ def _check_lines(nf, n_par, n_poles):
 
 def _algebraic(freq, Y, fband, peaks, zeta_max, info):
     """Peak candidates merged with the stable LSCF poles (and which peaks are pending);
-    the LSCF poles of every order go to ``info["stabilisation"]`` (then the model's field)."""
+    the LSCF poles of every order go to ``info["stabilisation"]`` (then the model's field).
+    ``Y`` is the search's data without the line weights (the caller divides them out): the
+    LSCF fits a rational function of ``s``, which the data are (combinations of channels:
+    a sum of modes) and the weighted data are not (noise-free six-mode receptance, level-
+    weighted: one stable pole of six, the rest found by the residual scan)."""
     w0, z0, side = peaks
     w_l, z_l, stab = lscf_candidates(freq, Y, fband, int(np.count_nonzero(side == 0)),
                                      zeta_max)

@@ -81,6 +81,10 @@ class SearchDiagnostics(FrozenState):
         With ``weighting="auto"`` on data whose lines may be weighted: the mean logLS
         against the data of the unweighted and of the level-weighted fit; the lower was
         kept (None: one fit only).
+    weighting_variance : (float, float) or None
+        With ``"auto"`` on data with a coherence below one: the mean squared misfit over the
+        point variance (3.59) of both fits, the measure that chose between them (None: the
+        logLS chose, or one fit only).
     """
 
     optimizer: str | None = None
@@ -99,6 +103,7 @@ class SearchDiagnostics(FrozenState):
     logls: float | None = None
     weighting: str | None = None
     weighting_logls: tuple | None = None
+    weighting_variance: tuple | None = None
 
     def __post_init__(self):
         freeze_arrays(self)
