@@ -396,12 +396,12 @@ class AutoSelection:
         """Close modes a fitted pole hides (:mod:`~sdctrl.identification._zoom`: the
         local rank of the data (3.20)-(3.22) above the poles fitted there, then a zoomed
         LSCF) around the in-band poles and the frequencies rejected before, fitted and
-        judged like residual peaks; None when there are none, or the rules exclude it
-        (windowed data: line-correlated noise), or the residual is no noise (noise-free)."""
+        judged like residual peaks; None when there are none (or the rules exclude it:
+        the line-correlated noise of windowed data raises the local rank)."""
         w, z, side, ev = state[:4]
         ib = side == 0
         key = tuple(np.round(np.sort(w[ib]) / (2 * np.pi) / self.df, 1))
-        if not (self.rules.close_modes and self.noise.independent(ev)) or key in self.zoomed:
+        if not self.rules.close_modes or key in self.zoomed:
             return None                       # once per set of in-band poles
         self.zoomed.add(key)
         cand, spans = zoom_candidates(self.freq, self.prob.Y, self.noise.field(ev),
