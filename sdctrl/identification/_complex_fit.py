@@ -170,7 +170,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         the lower kept (with a coherence, the one whose misfit over the point variance
         3.59 is the lower: ``cm.search.weighting_variance``) (each wins on some tests: the weighted one fits the tails of modes
         outside the band, near-null channels and displacement data, the unweighted one
-        where the loud lines of the resonances carry the information).  Weighting applies
+        where the loud lines of the resonances carry the information); data without
+        measurable noise (noise-free) get the unweighted fit only.  Weighting applies
         to data whose noise is independent between lines (not through an exponential
         window: there, one unweighted fit).  What was applied: ``cm.search.weighting``;
         with ``"auto"``, both fits' logLS: ``cm.search.weighting_logls``.  Warnings are
@@ -232,8 +233,8 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         rules = selection_rules(data)
         bar = progress_bar(desc="identify", unit="eval", enabled=progress)
         try:
-            passes = [_recorded(data, (fband, shown), opts, rules, w, bar)
-                      for w in passes_to_run(weighting, rules)]
+            todo = passes_to_run(weighting, rules, data.H.reshape(data.freq.size, -1))
+            passes = [_recorded(data, (fband, shown), opts, rules, w, bar) for w in todo]
         finally:
             bar.close()
     cm, caught = kept_pass(passes, data)

@@ -15,7 +15,7 @@ import numpy as np
 
 from sdctrl.identification._residues import stack
 
-__all__ = ["channel_weights", "compress", "compressed_data"]
+__all__ = ["channel_weights", "compress", "compressed_data", "measurable_noise"]
 
 #: weights of quiet channels at most this many times the median channel's
 MAX_WEIGHT = 1e3
@@ -54,19 +54,41 @@ def channel_weights(Hm: np.ndarray) -> np.ndarray:
     ndarray, shape (m,)
         Positive weights (all ones with fewer than seven lines or no measurable noise).
     """
-    nf, m = Hm.shape
-    if nf < 7:
+    m = Hm.shape[1]
+    if not measurable_noise(Hm):
         return np.ones(m)
+    d = Hm[:-2] - 2.0 * Hm[1:-1] + Hm[2:]
+    s2 = np.median(d.real**2 + d.imag**2, axis=0)
+    ref = float(np.median(s2))
+    s2 = np.clip(s2, ref / MAX_WEIGHT**2, None)
+    w = 1.0 / np.sqrt(s2)
+    return w / np.exp(np.mean(np.log(w)))
+
+
+def measurable_noise(Hm: np.ndarray) -> bool:
+    """Whether the data show noise independent between lines: on most channels (median
+    ratio at least :data:`NOISE_AGREEMENT`) their second differences agree with their fourth,
+    ``median |d^4 H|^2 / 70`` against ``median |d^2 H|^2 / 6`` (:func:`channel_weights`);
+    False with fewer than seven lines.
+
+    Parameters
+    ----------
+    Hm : ndarray, shape (nf, m)
+        Complex FRF data, one column per sensor/actuator pair.
+
+    Returns
+    -------
+    bool
+    """
+    if Hm.shape[0] < 7:
+        return False
     d = Hm[:-2] - 2.0 * Hm[1:-1] + Hm[2:]
     s2 = np.median(d.real**2 + d.imag**2, axis=0)
     d = d[:-2] - 2.0 * d[1:-1] + d[2:]
     s4 = np.median(d.real**2 + d.imag**2, axis=0)
-    ref = float(np.median(s2))
-    if not ref > 0 or np.median(6.0 * s4 / np.maximum(70.0 * s2, 1e-300)) < NOISE_AGREEMENT:
-        return np.ones(m)
-    s2 = np.clip(s2, ref / MAX_WEIGHT**2, None)
-    w = 1.0 / np.sqrt(s2)
-    return w / np.exp(np.mean(np.log(w)))
+    if not float(np.median(s2)) > 0:
+        return False
+    return bool(np.median(6.0 * s4 / np.maximum(70.0 * s2, 1e-300)) >= NOISE_AGREEMENT)
 
 
 def compress(Hm: np.ndarray, rank: int, seed=0, power: int = 2) -> tuple[np.ndarray, np.ndarray]:
