@@ -77,10 +77,9 @@ def bed():
 def bed_none(bed):
     """The bed's test identified unweighted (``weighting="none"``): 12 in-band poles and one
     above the band (63 Hz), the configuration the pole-handling tests below are about.
-    ``sd.identify``'s default (``"auto"``) keeps the level-weighted fit on this noise-free
-    test, whose poles depend on round-off: 15 (3.5 Hz below the band, 12 in it, 63 and 79
-    Hz above) with two BLAS threads, 25 (18 in band, three of them with residues ~1e-3 of
-    the others) with one."""
+    ``sd.identify``'s default (``"auto"``) fits this noise-free test unweighted too (no
+    measurable noise); level-weighted, its poles depended on round-off: 15, 22 or 25 (up to
+    six spurious in band) with the BLAS threads its modal model was computed with."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cm = sd.identify(sd.testbed_frf(), progress=False, weighting="none")

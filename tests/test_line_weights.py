@@ -31,8 +31,14 @@ from test_statistics_family import calibration, family_draws
 #: unweighted fit is 2.4x it
 FLOORS = {**FLOOR, "truss": 0.0024}
 #: logLS against the exact response, weighted fit, 1% noise, seed 1 (measured)
-MEASURED = {"truss": 0.00414, "truss_high": 0.00083, "ladder": 0.00043, "plate": 0.00050,
+#: (truss_high 0.00083 -> 7.5e-5 since the LSCF start fits the data without the weights)
+MEASURED = {"truss": 0.00414, "truss_high": 0.000075, "ladder": 0.00043, "plate": 0.00050,
             "cluster": 0.00032}
+#: logLS of the weighted fit's normal modes against the data (measured): within 3x the
+#: identified model's (the issue's max(3x, 0.01)) but truss_high, 3.4x (0.000415 against
+#: 0.000122; unweighted 0.00084 against 0.00052)
+NM_MEASURED = {"truss": 0.00726, "truss_high": 0.000415, "ladder": 0.00102, "plate": 0.00064,
+               "cluster": 0.00037}
 
 
 def _fit(frf, weighting="level", **kw):
@@ -82,7 +88,9 @@ def test_weighted_fit_within_twice_the_floor_on_every_member(name):
         nm = sd.normal_modes(cm, std=False)
     H = frf.H
     q = frf.quantity
-    assert logls(nm.frf(frf.freq, quantity=q).H, H) <= 3 * logls(cm.frf(frf.freq, quantity=q).H, H)
+    e_nm = logls(nm.frf(frf.freq, quantity=q).H, H)
+    assert e_nm <= max(3 * logls(cm.frf(frf.freq, quantity=q).H, H), 0.01)
+    assert e_nm <= 1.5 * NM_MEASURED[name] + 1e-5
 
 
 def test_the_measured_quantity_no_longer_matters():

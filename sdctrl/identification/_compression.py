@@ -69,7 +69,7 @@ def measurable_noise(Hm: np.ndarray) -> bool:
     """Whether the data show noise independent between lines: on most channels (median
     ratio at least :data:`NOISE_AGREEMENT`) their second differences agree with their fourth,
     ``median |d^4 H|^2 / 70`` against ``median |d^2 H|^2 / 6`` (:func:`channel_weights`);
-    False with fewer than seven lines.
+    False with fewer than seven lines.  Independent of the scale of ``Hm``.
 
     Parameters
     ----------
@@ -80,9 +80,11 @@ def measurable_noise(Hm: np.ndarray) -> bool:
     -------
     bool
     """
-    if Hm.shape[0] < 7:
+    big = float(np.max(np.abs(Hm))) if Hm.size else 0.0
+    if Hm.shape[0] < 7 or not big > 0:
         return False
-    d = Hm[:-2] - 2.0 * Hm[1:-1] + Hm[2:]
+    Hm = Hm * 2.0 ** -int(np.frexp(big)[1])     # exact: the squares below neither under-
+    d = Hm[:-2] - 2.0 * Hm[1:-1] + Hm[2:]          # nor overflow, whatever the unit of H
     s2 = np.median(d.real**2 + d.imag**2, axis=0)
     d = d[:-2] - 2.0 * d[1:-1] + d[2:]
     s4 = np.median(d.real**2 + d.imag**2, axis=0)
