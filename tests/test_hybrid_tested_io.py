@@ -64,8 +64,10 @@ def test_tested_hybrid_reproduces_the_identified_model_at_the_tested_io():
     for q in ("displacement", "acceleration"):
         e = logls(h.frf(f, q).H, nm.frf(f, q).H)
         print(f"\n{q}: logLS of the hybrid against nm {e:.2e}")
-        # the E term's band error carried (carry_flexibility): before, <= 0.8% of E (1e-5)
-        assert e < 1e-8
+        # the E term's band error carried (carry_flexibility, imaginary residues: measured
+        # 2.2e-8; with complex ones 4.5e-17 but an inexact realisation): before, <= 0.8% of
+        # E (1e-5)
+        assert e < 1e-7
     # the measured modes observed as identified, every other mode unobserved there
     assert np.all(h.cphi[:, ~h.measured] == 0)
     np.testing.assert_array_equal(np.sort(h.frequency[h.measured]), np.sort(nm.frequency))
