@@ -11,6 +11,8 @@ Internal module: the functions trust their inputs (validated by ``identify``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from sdctrl.identification._residues import stack
@@ -54,11 +56,10 @@ def channel_weights(Hm: np.ndarray) -> np.ndarray:
     ndarray, shape (m,)
         Positive weights (all ones with fewer than seven lines or no measurable noise).
     """
-    m = Hm.shape[1]
-    if not measurable_noise(Hm):
-        return np.ones(m)
-    d = Hm[:-2] - 2.0 * Hm[1:-1] + Hm[2:]
-    s2 = np.median(d.real**2 + d.imag**2, axis=0)
+    levels = _difference_levels(Hm)
+    if not _agree(levels):
+        return np.ones(Hm.shape[1])
+    s2 = levels.s2 * 4.0**levels.k                  # exact: back to the unit of Hm
     ref = float(np.median(s2))
     s2 = np.clip(s2, ref / MAX_WEIGHT**2, None)
     w = 1.0 / np.sqrt(s2)
@@ -80,17 +81,41 @@ def measurable_noise(Hm: np.ndarray) -> bool:
     -------
     bool
     """
+    return _agree(_difference_levels(Hm))
+
+
+@dataclass(frozen=True, eq=False)
+class _Levels:
+    """Per channel, ``median |d^2 H|^2`` (``s2``) and ``median |d^4 H|^2`` (``s4``) of the
+    data scaled by ``2^-k`` (exact), ``k`` the binary exponent of their largest entry."""
+
+    s2: np.ndarray
+    s4: np.ndarray
+    k: int
+
+
+def _difference_levels(Hm: np.ndarray) -> _Levels | None:
+    """The second- and fourth-difference levels of ``Hm`` (:class:`_Levels`), scaled so
+    that their squares neither under- nor overflow whatever the unit of ``Hm``; None with
+    fewer than seven lines or no nonzero entry."""
     big = float(np.max(np.abs(Hm))) if Hm.size else 0.0
     if Hm.shape[0] < 7 or not big > 0:
-        return False
-    Hm = Hm * 2.0 ** -int(np.frexp(big)[1])     # exact: the squares below neither under-
-    d = Hm[:-2] - 2.0 * Hm[1:-1] + Hm[2:]          # nor overflow, whatever the unit of H
+        return None
+    k = int(np.frexp(big)[1])
+    d = Hm * 2.0**-k
+    d = d[:-2] - 2.0 * d[1:-1] + d[2:]
     s2 = np.median(d.real**2 + d.imag**2, axis=0)
     d = d[:-2] - 2.0 * d[1:-1] + d[2:]
-    s4 = np.median(d.real**2 + d.imag**2, axis=0)
-    if not float(np.median(s2)) > 0:
+    return _Levels(s2, np.median(d.real**2 + d.imag**2, axis=0), k)
+
+
+def _agree(levels: _Levels | None) -> bool:
+    """Whether the second differences agree with the fourth on most channels (module notes
+    of :func:`channel_weights`): noise independent between lines."""
+    if levels is None or not float(np.median(levels.s2)) > 0:
         return False
-    return bool(np.median(6.0 * s4 / np.maximum(70.0 * s2, 1e-300)) >= NOISE_AGREEMENT)
+    ratio = 6.0 * levels.s4 / np.maximum(70.0 * levels.s2, 1e-300)
+    return bool(np.median(ratio) >= NOISE_AGREEMENT)
 
 
 def compress(Hm: np.ndarray, rank: int, seed=0, power: int = 2) -> tuple[np.ndarray, np.ndarray]:
