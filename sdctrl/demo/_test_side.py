@@ -104,11 +104,9 @@ class Identification:
 
         cm, frf = self.cm, self.frf
         s = doc.section("identification", "Identification: complex modes, no initial guess")
-        how = ("" if cm.search is None or cm.search.weighting in (None, "none") else
-               f", weighting={cm.search.weighting!r}")
         both = None if cm.search is None else cm.search.weighting_logls
-        if both is not None:
-            how = ""
+        kept = None if cm.search is None else cm.search.weighting
+        how = "" if both is not None or kept in (None, "none") else f", weighting={kept!r}"
         s.paragraph(
             f"`sd.identify(frf{how})` (chapter III) fits all {len(frf.sensors)} x "
             f"{len(frf.actuators)} FRFs with common poles: LSCF poles stable over three model "

@@ -155,15 +155,15 @@ def carry_flexibility(res: ResidualDynamics, nm, w_band) -> ResidualDynamics:
     against ``E`` but not against the response where ``E`` nearly cancels the tails of the
     out-of-band poles (``E`` 1200x the response at a line of a level-weighted fit of
     truss_high: the hybrid's nominal logLS was twice ``nm``'s; the ladder at 1%, 0.00075
-    against 0.00060).  Terms at the
-    poles above the band (the flexibility term's own and ``nm.residual``'s above it) get
-    imaginary residues ``dR`` (terms ``b / (s^2 + 2 zeta w s + w^2)``: proper in
-    acceleration, so realised exactly; real parts made the realisation of the default
-    testbed's hybrid differ from its FRF by 2e-3) that reproduce ``E (1 - g)`` over the band
-    lines, each tested channel by a least-squares fit weighted by ``1 / |H_nm|`` (the logLS
-    cost linearised; the smallest ``dR`` where the terms are nearly dependent).  The flexibility term takes its own
-    ``dR``; the others are appended as terms of their own (``nm.residual`` is kept as it is),
-    with :data:`CARRIED` as their reason.
+    against 0.00060).  Terms at the poles above the band (the flexibility term's own and
+    ``nm.residual``'s above it) get imaginary residues ``dR`` (terms ``b / (s^2 + 2 zeta w s
+    + w^2)``: proper in acceleration, so realised exactly; real parts made the realisation
+    of the default testbed's hybrid differ from its FRF by 2e-3) that reproduce ``E (1 -
+    g)`` over the band lines, each tested channel by a least-squares fit weighted by ``1 /
+    |H_nm|`` (the logLS cost linearised; the smallest ``dR`` where the terms are nearly
+    dependent).  The flexibility term takes its own ``dR``; the others are appended as
+    terms of their own (``nm.residual`` is kept as it is), with :data:`CARRIED` as their
+    reason.
     """
     E = np.asarray(nm.E, float)
     far = np.flatnonzero(np.abs(res.poles) > w_band[-1])

@@ -168,9 +168,10 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         fit of noise relative to the response; :mod:`~sdctrl.identification._line_weights`),
         or ``"auto"`` (default): both fits, the one whose mean logLS against the data is
         the lower kept (with a coherence, the one whose misfit over the point variance
-        3.59 is the lower: ``cm.search.weighting_variance``) (each wins on some tests: the weighted one fits the tails of modes
-        outside the band, near-null channels and displacement data, the unweighted one
-        where the loud lines of the resonances carry the information); data without
+        3.59 is the lower: ``cm.search.weighting_variance``); each wins on some tests: the
+        weighted one fits the tails of modes outside the band, near-null channels and
+        displacement data, the unweighted one where the loud lines of the resonances
+        carry the information.  Data without
         measurable noise (noise-free) get the unweighted fit only.  Weighting applies
         to data whose noise is independent between lines (not through an exponential
         window: there, one unweighted fit).  What was applied: ``cm.search.weighting``;

@@ -27,11 +27,11 @@ both and keeps the fit whose mean logLS (3.12) against the data of the band is t
 and channels, no threshold.  On the family at 1% noise (seeds 1-3), over their bands and
 over fresh ones, in acceleration and displacement (36 cases, ``weighting="none"`` /
 ``"level"``, logLS of the identified model against the exact response), the rule kept the
-fit closer to the exact response every time: the weighted fit on the truss (0.0057 / 0.0041), the cluster (0.030 /
-0.00032), displacement data (truss_high 0.073 / 0.0008), the ladder over 20-70 Hz (0.00018
-/ 2.1e-5), the held-out structure (0.088 / 0.0041), ``truss_high`` at seed 1 (0.00047 /
-7.5e-5); the unweighted one on the plate at 1%
-(0.00029 / 0.00050), ``truss_high`` at seed 2 (0.00062 / 0.00080) and ``truss_high`` tested
+fit closer to the exact response every time: the weighted fit on the truss (0.0057 /
+0.0041), the cluster (0.030 / 0.00032), displacement data (truss_high 0.073 / 0.0008), the
+ladder over 20-70 Hz (0.00018 / 2.1e-5), the held-out structure (0.088 / 0.0041),
+``truss_high`` at seed 1 (0.00047 / 7.5e-5); the unweighted one on the plate at 1% (0.00029
+/ 0.00050), ``truss_high`` at seed 2 (0.00062 / 0.00080) and ``truss_high`` tested
 over 30-70 Hz, modes at 27.6 and 77.6 Hz just outside (0.0009 / 0.072: with the weights, the
 out-of-band probe's start cost falls steadily towards the far bound, the trial is pushed to
 the bound and rejected).  The weighted fit's gain is at the quiet lines: the tails of modes
