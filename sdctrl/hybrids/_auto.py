@@ -39,7 +39,8 @@ from sdctrl.updating._costs import logls
 from sdctrl.hybrids._hybrid_basis import band_lines
 from sdctrl.hybrids._predictions import with_static
 
-__all__ = ["MAX_FOLDS", "TIE", "choose_residual", "has_tested", "pick"]
+__all__ = ["MAX_FOLDS", "TIE", "choose_residual", "has_tested", "held_out_scores", "pick",
+           "reference_lines"]
 
 #: most channels held out (one fold each)
 MAX_FOLDS = 6
@@ -77,7 +78,7 @@ def _folds(n: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, min(n, MAX_FOLDS))).astype(int))
 
 
-def choose_residual(build, nm, c, loads, full: dict, *, response=None):
+def choose_residual(build, nm, c, loads, full: dict, *, response=None, scores=None):
     """Residual representation of a hybrid by leave-one-out prediction on the test's channels.
 
     Parameters
@@ -98,6 +99,8 @@ def choose_residual(build, nm, c, loads, full: dict, *, response=None):
         ``K^-1 loads``: its columns serve every fold (the builds' static corrections and the
         held-out input's, :func:`~sdctrl.hybrids._predictions.with_static`) instead of a
         solve per fold; None: each solves for its own loads (the same to round-off).
+    scores : tuple, optional
+        What :func:`held_out_scores` returned for these candidates, when already computed.
 
     Returns
     -------
@@ -107,19 +110,41 @@ def choose_residual(build, nm, c, loads, full: dict, *, response=None):
         ``chosen_by``, ``held_out``, ``loo_scores``, ``nominal_scores`` of
         :class:`~sdctrl.hybrids._hybrid_records.ResidualChoice`.
     """
+    hz, Href = reference_lines(nm)
+    nominal = {k: logls(m.frf(hz).H, Href) for k, m in full.items()}
+    names = tuple(dict.fromkeys(SAME_PREDICTIONS.get(k, k) for k in full))
+    if scores is None:
+        scores = held_out_scores(build, nm, c, loads, names, response=response)
+    if scores is None:
+        best = min(nominal, key=nominal.get)
+        return best, {"chosen_by": "nominal", "held_out": np.zeros(0, int),
+                      "loo_scores": {}, "nominal_scores": nominal}
+    how, folds, per = scores
+    per = {k: per[SAME_PREDICTIONS.get(k, k)] for k in full}
+    loo = {k: float(np.mean(v)) for k, v in per.items()}
+    return pick(per, nominal), {"chosen_by": how, "held_out": folds, "loo_scores": loo,
+                                "nominal_scores": nominal}
+
+
+def reference_lines(nm):
+    """The band's lines (Hz) of the scores and ``nm``'s FRF there (the reference)."""
     w_id = np.sqrt(np.clip(np.diag(nm.Omega), 0, None))
     hz = band_lines(nm, w_id) / (2 * np.pi)
-    Href = nm.frf(hz).H
-    nominal = {k: logls(m.frf(hz).H, Href) for k, m in full.items()}
+    return hz, nm.frf(hz).H
+
+
+def held_out_scores(build, nm, c, loads, names, *, response=None):
+    """Held-out logLS of the candidates ``names``, one per fold (see
+    :func:`choose_residual` for ``build``, ``c``, ``loads`` and ``response``):
+    ``(how, folds, {name: [score per fold]})``, or None when nothing can be held out
+    (one sensor and one actuator)."""
+    hz, Href = reference_lines(nm)
     if loads is not None and nm.na >= 2:
         how, folds = "leave-one-actuator-out", _folds(nm.na)
     elif nm.ns >= 2:
         how, folds = "leave-one-sensor-out", _folds(nm.ns)
     else:
-        best = min(nominal, key=nominal.get)
-        return best, {"chosen_by": "nominal", "held_out": np.zeros(0, int),
-                      "loo_scores": {}, "nominal_scores": nominal}
-    names = tuple(dict.fromkeys(SAME_PREDICTIONS.get(k, k) for k in full))
+        return None
     per = {k: [] for k in names}
     for j in folds:
         if how == "leave-one-actuator-out":
@@ -134,10 +159,7 @@ def choose_residual(build, nm, c, loads, full: dict, *, response=None):
             models = build(io_kept(nm, sensors=rest), c[rest], loads, names, response)
             for k, m in models.items():
                 per[k].append(logls(m.with_io(c=c[[j]]).frf(hz).H[:, 0, :], Href[:, j, :]))
-    per = {k: per[SAME_PREDICTIONS.get(k, k)] for k in full}
-    loo = {k: float(np.mean(v)) for k, v in per.items()}
-    return pick(per, nominal), {"chosen_by": how, "held_out": folds, "loo_scores": loo,
-                                "nominal_scores": nominal}
+    return how, folds, per
 
 
 def pick(per: dict, nominal: dict) -> str:

@@ -25,7 +25,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sdctrl._lib.threads import single_thread
-from sdctrl._lib.validate import check_scalar
 from sdctrl.fe._static import consistent_static_modes
 from sdctrl.fe._fe_checks import shapes_on_dofs
 from sdctrl.fe._fe_model import check_fe_model
@@ -46,10 +45,13 @@ from sdctrl.hybrids._hybrid_records import (
 )
 from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
-from sdctrl.hybrids._measured_residual import measured_appended_w2
+from sdctrl.hybrids._measured_residual import measured_appended_w2, out_of_band_candidates
+from sdctrl.hybrids._out_of_band import trial_out_of_band
 from sdctrl.hybrids._tested_io import TestedIO, keep_tested, realise_residual
-from sdctrl.hybrids._auto import choose_residual, has_tested
-from sdctrl.hybrids._io_checks import placed_io
+from sdctrl.updating._costs import logls
+from sdctrl.hybrids._auto import (SAME_PREDICTIONS, choose_residual, has_tested,
+                                  held_out_scores, reference_lines)
+from sdctrl.hybrids._io_checks import measured_w2, placed_io, test_loads, warn_left_out
 
 __all__ = ["hybrid", "pairing_report"]
 
@@ -236,12 +238,12 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
     # its kernels are small dense products and solves, which BLAS threads on the shared
     # 2-core machine made 2-10x slower, in CPU time too (issue 27)
     with single_thread():
-        w2_id, fmax, mac_min = _measured(nm, fmax, mac_min)
+        w2_id, fmax, mac_min = measured_w2(nm, fmax, mac_min)
         f_id = np.sqrt(w2_id) / (2 * np.pi)
         f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
         setup = _Setup(fe, f_fe, phi_fe, mac_min, expansion)
-        _warn_left_out(nm)
-        loads, unexcited = _loads(fe, nm, b)
+        warn_left_out(nm)
+        loads, unexcited = test_loads(fe, nm, b)
         if unexcited:
             warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
                           "modes are not excited by the model's inputs; give actuator_b",
@@ -256,24 +258,45 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
 
 
 def _auto(setup, nm, c, loads, static_b, response):
-    """``residual="auto"``: every candidate built from the whole test, the kept one chosen
-    by :func:`~sdctrl.hybrids._auto.choose_residual`.  ``response`` is ``K^-1 loads`` shared
-    by all the builds (None: each build solves for its own loads, the same to round-off)."""
+    """``residual="auto"``: every candidate built from the whole test, the out-of-band poles
+    that give appended FE modes their frequency tried (:mod:`sdctrl.hybrids._out_of_band`),
+    the kept candidate chosen by :func:`~sdctrl.hybrids._auto.choose_residual`.
+    ``response`` is ``K^-1 loads`` shared by all the builds (None: each build solves for its
+    own loads, the same to round-off)."""
     candidates = _RESIDUALS if has_tested(nm) else ("identified", "fe")
-    full, prior = _variants(setup, nm, c, loads, candidates, static_b=static_b,
-                            response=response)
+    full, prior, offered = _variants(setup, nm, c, loads, candidates, static_b=static_b,
+                                     response=response)
 
-    def build(nm_k, c_k, loads_k, names, response_k):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return _variants(setup, nm_k, c_k, loads_k, names,
-                             prior=prior if c_k is c else None, response=response_k)[0]
+    def builder(poles):
+        def build(nm_k, c_k, loads_k, names, response_k):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return _variants(setup, nm_k, c_k, loads_k, names, out_of_band=poles,
+                                 prior=prior if c_k is c else None, response=response_k)[0]
+        return build
 
-    chosen, record = choose_residual(build, nm, c, loads, full, response=response)
+    names = tuple(dict.fromkeys(SAME_PREDICTIONS.get(k, k) for k in full))
+    scores = held_out_scores(builder(()), nm, c, loads, names, response=response)
+    kept, trials = (), ()
+    if offered:
+        hz, Href = reference_lines(nm)
+        base = (logls(full["identified"].frf(hz).H, Href),
+                None if scores is None else scores[2]["identified"])
+        kept, trials = trial_out_of_band(
+            offered, lambda poles: _variants(setup, nm, c, loads, ("identified",),
+                                             static_b=static_b, prior=prior, response=response,
+                                             out_of_band=poles)[0]["identified"],
+            builder, nm, c, loads, base, response=response)
+    if kept:
+        full = _variants(setup, nm, c, loads, candidates, static_b=static_b, prior=prior,
+                         response=response, out_of_band=kept)[0]
+        scores = held_out_scores(builder(kept), nm, c, loads, names, response=response)
+    chosen, record = choose_residual(builder(kept), nm, c, loads, full, response=response,
+                                     scores=scores)
     model = full[chosen]
     built = model.construction
-    return model.replace(construction=replace(built, residual=replace(built.residual,
-                                                                      **record)))
+    return model.replace(construction=replace(
+        built, residual=replace(built.residual, **record), out_of_band=trials))
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,12 +313,14 @@ class _Setup:
 
 
 def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=None,
-              response=None):
+              response=None, out_of_band=()):
     """The hybrid models of ``nm`` tested at ``c``/``loads``, one per residual
     representation of ``residuals``, sharing their pairing and expansion (5.1.1, 4.7):
-    ``(dict of name to HybridModel, the expansion prior)``; ``prior`` and ``response``
-    (``K^-1 loads``) reused when given
-    (:func:`~sdctrl.hybrids._hybrid_basis.build_basis`)."""
+    ``(dict of name to HybridModel, the expansion prior, the out-of-band poles offered)``;
+    ``prior`` and ``response`` (``K^-1 loads``) reused when given
+    (:func:`~sdctrl.hybrids._hybrid_basis.build_basis`); ``out_of_band``: indices of
+    ``nm.residual``'s out-of-band poles that give their paired appended FE mode its
+    frequency (:mod:`sdctrl.hybrids._out_of_band`)."""
     fe, f_fe, phi_fe = setup.fe, setup.f_fe, setup.phi_fe
     w2_id = np.clip(np.diag(nm.Omega), 0, None)
     f_id = np.sqrt(w2_id) / (2 * np.pi)
@@ -311,7 +336,8 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
                        fe_idx[kept], setup.expansion, prior, response)
     # appended FE modes the test measured as residual dynamics take the measured frequency
     base.appended_test_w2 = measured_appended_w2(nm, c, phi_fe, f_fe, base.appended_w2,
-                                                 setup.mac_min)
+                                                 setup.mac_min, out_of_band)
+    offered = out_of_band_candidates(nm, c, phi_fe, f_fe, base.appended_w2, setup.mac_min)
     zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
     pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],
                           test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)
@@ -326,8 +352,8 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
         if key not in fits:
             fits[key] = select_residual(nm, kept, base, c, nm.phib[kept], loads, zeta_mean,
                                         key)
-    return {res: _one(common, res, fits["fe" if res == "fe" else "identified"])
-            for res in residuals}, base.prior
+    return ({res: _one(common, res, fits["fe" if res == "fe" else "identified"])
+             for res in residuals}, base.prior, offered)
 
 
 @dataclass(frozen=True, eq=False)
@@ -395,19 +421,6 @@ def _warn_poor(km, mac_pairs, mac_min, fe_idx, f_id, f_fe) -> np.ndarray:
     return poor
 
 
-def _warn_left_out(nm) -> None:
-    """Poles of the identified model left out of ``nm`` (``normal_modes(cm, modes=...)``)."""
-    left = None if nm.properness is None else nm.properness.poles_left_out_hz
-    hz = np.atleast_1d(np.asarray([] if left is None else left, float))
-    if hz.size:
-        warnings.warn(f"hybrid: nm was built from a subset of the identified poles (the pole(s) "
-                      f"at {np.round(hz, 2).tolist()} Hz left out): their contribution near the "
-                      "band edges is lost and only the FE model stands for them; build nm "
-                      "with sd.normal_modes(cm) (its default keeps the poles outside the band "
-                      "as residual dynamics) and let the FE modes stand for them",
-                      stacklevel=3)
-
-
 def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:
     """Out-of-band identified poles that pair poorly: absorbed into the residual terms."""
     ib = _in_band(nm)
@@ -420,16 +433,6 @@ def _in_band(nm):
     """Per mode of ``nm``, in the identified band (``nm.properness.in_band``), or None."""
     ib = None if nm.properness is None else nm.properness.in_band
     return None if ib is None or np.shape(ib) != (nm.n,) else np.asarray(ib, bool)
-
-
-def _loads(fe, nm, b):
-    """Physical test inputs: ``actuator_b``, point forces at ``nm.actuators`` labels, or
-    None, and whether the appended modes stay unexcited."""
-    if b is not None:
-        return b, False
-    if nm.na and set(nm.actuators) <= set(fe.dofs):
-        return fe.point(list(nm.actuators)), False
-    return None, bool(nm.na)
 
 
 def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:
@@ -463,22 +466,6 @@ def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:
     off = np.hstack([modes.offset[:, keep], np.zeros((modes.offset.shape[0], V.shape[1]))])
     return ModeSet(np.hstack([modes.shapes[:, keep], V]), np.concatenate([modes.w2[keep], wc2]),
                    G, pb, np.concatenate([modes.kind[keep], label]), off)
-
-
-def _measured(nm, fmax, mac_min):
-    """Measured ``omega^2`` (rad/s)^2 of ``nm`` (normal modes), ``fmax`` Hz and ``mac_min``."""
-    Om = nm.Omega
-    if np.abs(Om - np.diag(np.diag(Om))).max() > 1e-8 * max(np.abs(Om).max(), 1e-300):
-        raise ValueError("nm.Omega must be diagonal (normal modes): re-diagonalise with "
-                         "nm.modified() first")
-    w2_id = np.clip(np.diag(Om), 0, None)
-    if nm.n == 0:
-        raise ValueError("nm must hold at least one measured mode")
-    fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
-    if fmax is None:
-        fmax = 5.0 * float((np.sqrt(w2_id) / (2 * np.pi)).max())
-    mac_min = check_scalar(mac_min, "mac_min", lo=0.0, hi=1.0)
-    return w2_id, fmax, mac_min
 
 
 def _mean_damping(nm, w_id, kept) -> float:

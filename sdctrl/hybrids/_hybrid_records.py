@@ -100,6 +100,34 @@ class ResidualChoice(FrozenState):
 
 
 @dataclass(frozen=True, eq=False)
+class OutOfBandTrial(FrozenState):
+    """One out-of-band test pole tried as the frequency of an appended FE mode
+    (:mod:`sdctrl.hybrids._out_of_band`).
+
+    Attributes
+    ----------
+    pole_hz : float
+        Frequency (Hz) of the identified pole (outside the band).
+    fe_hz : float
+        Frequency (Hz) of the FE mode it pairs with (before ``kappa``).
+    nominal : tuple of float
+        logLS of the ``"identified"`` hybrid against the identified model at the tested
+        I/O, without and with the measured frequency.
+    held_out : tuple of float or None
+        Mean held-out logLS (leave-one-out, :mod:`sdctrl.hybrids._auto`) without and with
+        it; None when the nominal test already refused it or nothing can be held out.
+    kept : bool
+        Whether the FE mode took the measured frequency.
+    """
+
+    pole_hz: float
+    fe_hz: float
+    nominal: tuple
+    held_out: tuple | None
+    kept: bool
+
+
+@dataclass(frozen=True, eq=False)
 class HybridConstruction(FrozenState):
     """What :func:`sdctrl.hybrid` found while building the model (5.1.1, 4.7).
 
@@ -126,6 +154,9 @@ class HybridConstruction(FrozenState):
         correction modes, 2.22), None when none was kept.
     mass_correction : ndarray or None
         Eigenvalues of the low modes' inverse-mass correction (``"mass+E"`` variant).
+    out_of_band : tuple of OutOfBandTrial
+        With ``residual="auto"``: the out-of-band poles tried as appended FE modes'
+        frequencies, kept or not, and the scores that decided.
     """
 
     pairing: ModePairing | None = None
@@ -137,6 +168,7 @@ class HybridConstruction(FrozenState):
     residual: ResidualChoice | None = None
     residual_flexibility: np.ndarray | None = None
     mass_correction: np.ndarray | None = None
+    out_of_band: tuple = ()
 
     def __post_init__(self):
         freeze_arrays(self)

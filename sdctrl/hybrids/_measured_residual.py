@@ -23,10 +23,11 @@ import numpy as np
 from sdctrl.hybrids._expansion import PAIR_RATIO
 from sdctrl.identification._mode_split import IMPROPER, OUT_OF_BAND
 
-__all__ = ["measured_appended_w2"]
+__all__ = ["measured_appended_w2", "out_of_band_candidates"]
 
 
-def measured_appended_w2(nm, c, phi_fe, f_fe, appended_w2, mac_min: float):
+def measured_appended_w2(nm, c, phi_fe, f_fe, appended_w2, mac_min: float,
+                         out_of_band=()):
     """Measured ``omega^2`` of the appended FE modes the test kept as residual dynamics.
 
     Parameters
@@ -43,6 +44,10 @@ def measured_appended_w2(nm, c, phi_fe, f_fe, appended_w2, mac_min: float):
         FE ``omega^2`` of the appended modes (before ``kappa``).
     mac_min : float
         MAC threshold of the pairing.
+    out_of_band : sequence of int
+        Indices in ``nm.residual.poles`` of out-of-band poles paired as well, after the
+        in-band ones (the poles :func:`out_of_band_candidates` offers and the hybrid's
+        ``residual="auto"`` kept, :mod:`sdctrl.hybrids._out_of_band`).
 
     Returns
     -------
@@ -51,24 +56,55 @@ def measured_appended_w2(nm, c, phi_fe, f_fe, appended_w2, mac_min: float):
         mode, NaN for the others.
     """
     out = np.full(np.shape(appended_w2), np.nan)
+    for _, k, w2 in _pairs(nm, c, phi_fe, f_fe, appended_w2, mac_min, tuple(out_of_band)):
+        out[k] = w2
+    return out
+
+
+def out_of_band_candidates(nm, c, phi_fe, f_fe, appended_w2, mac_min: float) -> tuple:
+    """Out-of-band poles of ``nm.residual`` that pair with an appended FE mode left free by
+    the in-band ones (same rule: the residue's shape at the tested sensors, MAC at least
+    ``mac_min``, within the pairing's frequency factor): ``(index in nm.residual.poles,
+    FE frequency in Hz)`` per pole.
+
+    Such a pole may be a mode just outside the band, measured through its flank, or a term
+    that stands for several modes (3.7); which ones take their measured frequency is
+    decided on the test itself (:mod:`sdctrl.hybrids._out_of_band`).
+    """
     r = nm.residual
-    if r is None or not out.size or (r.sensors is not None
-                                     and tuple(r.sensors) != tuple(nm.sensors)):
-        return out
+    if r is None:
+        return ()
+    every = tuple(i for i, why in enumerate(r.reasons) if why == OUT_OF_BAND)
+    return tuple((i, float(np.sqrt(appended_w2[k]) / (2 * np.pi)))
+                 for i, k, _ in _pairs(nm, c, phi_fe, f_fe, appended_w2, mac_min, every)
+                 if r.reasons[i] == OUT_OF_BAND)
+
+
+def _pairs(nm, c, phi_fe, f_fe, appended_w2, mac_min, out_of_band):
+    """``(pole index, appended column, measured omega^2)`` of the residual poles paired
+    with appended FE modes: the in-band ones first, then ``out_of_band``; each FE mode
+    once."""
+    r = nm.residual
+    if r is None or not np.size(appended_w2) or (r.sensors is not None
+                                                and tuple(r.sensors) != tuple(nm.sensors)):
+        return []
     lam_fe = (2 * np.pi * np.asarray(f_fe)) ** 2
     # each appended column is an FE mode (same omega^2, 5.1.1)
     fe_of = np.array([int(np.argmin(np.abs(lam_fe - w2))) for w2 in appended_w2])
     cphi = c @ phi_fe[:, fe_of]
-    for pole, R, why in zip(r.poles, r.residues, r.reasons):
-        if why in (OUT_OF_BAND, IMPROPER):
-            continue
-        u = np.linalg.svd(np.asarray(R))[0][:, 0]
+    order = [i for i, why in enumerate(r.reasons) if why not in (OUT_OF_BAND, IMPROPER)]
+    order += [i for i in out_of_band if r.reasons[i] == OUT_OF_BAND]
+    taken, found = np.zeros(np.size(appended_w2), bool), []
+    for i in order:
+        pole = r.poles[i]
+        u = np.linalg.svd(np.asarray(r.residues[i]))[0][:, 0]
         mac = np.abs(u.conj() @ cphi) ** 2 / (
             np.vdot(u, u).real * np.maximum(np.sum(cphi ** 2, axis=0), 1e-300))
         f = abs(pole) / (2 * np.pi)
         mac[np.abs(np.log(np.sqrt(appended_w2) / (2 * np.pi) / f)) > np.log(PAIR_RATIO)] = 0
-        mac[~np.isnan(out)] = 0                        # each FE mode once
+        mac[taken] = 0                                  # each FE mode once
         k = int(np.argmax(mac))
         if mac[k] >= mac_min:
-            out[k] = abs(pole) ** 2
-    return out
+            taken[k] = True
+            found.append((i, k, abs(pole) ** 2))
+    return found
