@@ -38,7 +38,12 @@ from sdctrl.hybrids._auto import TIE
 #: ladder 0.0018 -> 0.0024, plate 0.0014 -> 0.0006); at 1% every hybrid nominal is within
 #: 1.4% of its normal-mode model's logLS or below it
 MEASURED = {
-    ('truss', 0.0): (0.0048, 0.0048, 137.48, 6.59, 25.48, 0.0001, 0.0473),
+    # the truss, truss_high and plate rows since an out-of-band test pole may give an appended
+    # FE mode its frequency (sdctrl.hybrids._out_of_band: the fit at the tested I/O and the
+    # held-out prediction both better): untested shaker truss 25.48 -> 26.92x (1% 24.56 ->
+    # 25.8x), truss_high 20.52 -> 21.25x (19.69 -> 20.93x), plate 34.47 -> 43.65x (33.47 ->
+    # 44.14x); every other figure within 1% (the truss's D-strut at 1% 148.24 -> 147.41x)
+    ('truss', 0.0): (0.0048, 0.0048, 137.62, 6.6, 26.92, 0.0001, 0.0473),
     # the truss at 1% since the rows of phib of its close pair (15.8/15.9 Hz) are refitted to
     # the FRF (normal modes, issue 22): before (0.0135, 0.01354, 112.3, 6.51, 24.23, 0.0003)
     # the 1% rows since the normal modes keep the improper parts the logLS rule asks for
@@ -52,9 +57,9 @@ MEASURED = {
     # 138.26, 6.53, 24.57, 0.0002), truss_high (0.00202, 0.00198, 124.92, 4.71, 19.77, 0.0028),
     # ladder (0.00241, 0.00239, 647.22, 327.76, 28.95, 0.0004), plate (0.00034, 0.00035,
     # 2741.49, 12.79, 33.22, 0.0001)
-    ('truss', 0.01): (0.0081, 0.00806, 148.24, 6.56, 24.56, 0.0002, 0.0473),
-    ('truss_high', 0.0): (0.00088, 0.00088, 129.42, 4.73, 20.52, 0.003, 0.1147),
-    ('truss_high', 0.01): (0.00142, 0.00142, 128.12, 4.7, 19.69, 0.0028, 0.1147),
+    ('truss', 0.01): (0.0081, 0.00806, 147.41, 6.57, 25.8, 0.0, 0.0473),
+    ('truss_high', 0.0): (0.00088, 0.00088, 130.15, 4.73, 21.25, 0.0032, 0.1147),
+    ('truss_high', 0.01): (0.00142, 0.00142, 128.08, 4.7, 20.93, 0.0031, 0.1147),
     # the noise-free ladder since identification's own solver (issue 27) ends at 15 poles,
     # logLS 7.7e-4 (an exact fit's pruning decided by round-off, tests/test_family_identify.py):
     # before (4e-05, 0.0, 42562.09, 622.04, 43.42, 0.0001) -- every target still met
@@ -62,8 +67,8 @@ MEASURED = {
     ('ladder', 0.01): (0.0006, 0.0006, 2596.9, 503.63, 29.34, 0.0003, 0.0443),
     # the noise-free plate since identify's default zeta_max is 0.25 (its identified model
     # 6.6e-4 -> 4.5e-12): before (0.00076, 0.00091, 1168.15, 12.81, 34.47, 0.0)
-    ('plate', 0.0): (5e-08, 0.0, 34282.07, 12.91, 34.47, 0.0, 0.0255),
-    ('plate', 0.01): (0.00036, 0.00035, 2664.29, 12.79, 33.47, 0.0001, 0.0255),
+    ('plate', 0.0): (5e-08, 0.0, 34318.08, 12.91, 43.65, 0.0, 0.0255),
+    ('plate', 0.01): (0.00036, 0.00035, 2666.93, 12.79, 44.14, 0.0001, 0.0255),
     # the cluster re-locked when identify's default became "auto" (the level-weighted fit
     # kept at 1%: it resolves the near-node and cross-axis lines the unweighted fit missed;
     # noise-free data get the unweighted fit) and the flexibility term's band error was

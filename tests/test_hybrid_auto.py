@@ -176,11 +176,11 @@ def test_auto_sharing_one_static_solve_is_the_model_of_a_solve_per_build(name):
     SH, SE = list(st.shakers), list(st.sensors)
     h = _hybrid(wrong, nm, SE, SH)
     c, bb = b.placed_io(wrong, nm, SE, SH)
-    w2, fmax, mac_min = b._measured(nm, None, b.MAC_POOR)
+    w2, fmax, mac_min = b.measured_w2(nm, None, b.MAC_POOR)
     f_fe, phi_fe = b.fe_modes_upto(wrong, max(fmax, 1.05 * np.sqrt(w2.max()) / (2 * np.pi)),
                                    nm.n)
     setup = b._Setup(wrong, f_fe, phi_fe, mac_min, "regularised")
-    loads, _ = b._loads(wrong, nm, bb)
+    loads, _ = b.test_loads(wrong, nm, bb)
     calls = []
 
     def held_out(m, loads, response, j):        # the plain with_io, no shared column

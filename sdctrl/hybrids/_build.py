@@ -125,7 +125,11 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       the median measured/FE frequency ratio of the paired modes, but an appended mode
       the test measured as residual dynamics (an in-band mode not made normal, paired by
       its residue's shape) takes the measured frequency
-      (:mod:`sdctrl.hybrids._measured_residual`).  Each of these steps is
+      (:mod:`sdctrl.hybrids._measured_residual`); with ``residual="auto"`` so may one the
+      test holds as an out-of-band pole, when both the fit at the tested I/O and the
+      held-out prediction are better with it (a mode just above the band that the FE put
+      inside it, not a pole standing for several modes: :mod:`sdctrl.hybrids._out_of_band`,
+      trials on ``construction.out_of_band``).  Each of these steps is
       kept only if it brings the model closer to ``nm`` at the tested I/O
       (:func:`sdctrl.hybrids._hybrid_basis.select_residual`; ``construction.residual``).  The kept
       ``E`` is carried by the static correction modes' observabilities (2.22), so that
