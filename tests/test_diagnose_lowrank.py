@@ -14,7 +14,13 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.diagnosis._candidate_scan import _own_flexibility, _single, _sub, _transfers, setup
+from sdctrl.diagnosis._candidate_scan import setup
+from sdctrl.diagnosis._exact_screen import (
+    own_flexibility_of as _own_flexibility,
+    single as _single,
+    sub_group as _sub,
+    transfers as _transfers,
+)
 from sdctrl.diagnosis._candidates import Candidates, _beam_matrices, _pairs, candidate_groups
 from sdctrl.diagnosis._finalist_fit import fit_task
 from sdctrl.diagnosis._lowrank import StaticTerms, dynamic_stiffness, screen_chunk, woodbury

@@ -28,10 +28,16 @@ import numpy as np
 import scipy.sparse as sp
 
 from sdctrl._lib.parallel import dask_client, map_chunks, share
-from sdctrl.diagnosis._candidates import Candidates, Group, families
+from sdctrl.diagnosis._candidates import Candidates, families
 from sdctrl.diagnosis._finalist_fit import fit_task
 from sdctrl.diagnosis._global_effects import proposal
-from sdctrl.diagnosis._lowrank import Resolvent, own_flexibility, screen_chunk, static_terms
+from sdctrl.diagnosis._lowrank import Resolvent, screen_chunk, static_terms
+from sdctrl.diagnosis._exact_screen import (
+    rescreen,
+    single as _single,
+    sub_group as _sub,
+    transfers32 as _transfers32,
+)
 
 __all__ = ["Setup", "physical_proposals", "setup"]
 
@@ -47,17 +53,6 @@ FINE_FRAC, FINE_MIN = 0.12, 8
 COARSE_EVERY = 2
 #: resonator tunings tried around the frequency of the extra mode seen in the data
 RES_TUNING = (0.97, 1.0, 1.03)
-#: columns of one batch of exact static corrections (one multi-load solve)
-EXACT_BATCH = 256
-#: the best of each family after the screen (this share, at least EXACT_MIN) are screened
-#: again with their exact static correction before the finalists are chosen; at least one
-#: batch of them: a family of up to EXACT_BATCH candidates (a few hundred elements) is
-#: screened exactly whole.  The projected correction's bias is the candidate's own and
-#: reorders the candidates: on the plate over 25-58 Hz (noise-free), the right dashpot and
-#: spring were 23rd and 22nd of 182 after the projected screen (the dashpot 1.23x the best
-#: cost, the spring 5.4x), left out when the exact screen took 16, and another element
-#: was reported; screened exactly, both are found, the error left 5e-12 and 6e-10
-EXACT_FRAC, EXACT_MIN = 0.02, EXACT_BATCH
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,49 +155,6 @@ def setup(model, fe, placed, cand: Candidates) -> Setup:
                  np.asarray(model.phib)[:, placed.cols], dof_idx, phid, st, fams, cand.kinv)
 
 
-def _transfers(S, placed, s, group):
-    """``G_yk, G_kk, G_ku`` of every candidate of ``group`` on lines ``s``: modal transfers of
-    their loads projected on the model's shapes, static terms from the test's static
-    corrections (exact) and, for ``G_kk``, the candidate's own flexibility projected on them
-    (:meth:`StaticTerms.projected`).  Work and memory grow with the candidates only."""
-    nc, k = group.size, group.rank
-    bm = group.project(S.phid)                                         # (nc, k, n)
-    bmf = bm.reshape(nc * k, -1).T                                     # (n, nc k)
-    nf = s.size
-    Gyk = S.res.transfer(s, S.C.T, bmf).reshape(nf, -1, nc, k).transpose(2, 0, 1, 3)
-    Gyk = Gyk + group.project(S.static.Fyd[placed.rows].T).transpose(0, 2, 1)[:, None]
-    Gku = S.res.transfer(s, bmf, S.B).reshape(nf, nc, k, -1).transpose(1, 0, 2, 3)
-    Gku = Gku + group.project(S.static.Fdu[:, placed.cols])[:, None]
-    if S.res.lam is not None:
-        Rs = 1.0 / (s[:, None] - S.res.lam[None, :])                   # (nf, 2n)
-        Lv = (bmf.T @ S.res.Vt).reshape(nc, k, -1)
-        Rv = (S.res.Wb @ bmf).reshape(-1, nc, k).transpose(1, 0, 2)
-        W = np.einsum("cpj,cjq->jcpq", Lv, Rv).reshape(Rs.shape[1], -1)
-        Gkk = (Rs @ W).reshape(nf, nc, k, k).transpose(1, 0, 2, 3)
-    else:
-        Gkk = np.stack([S.res.transfer(s, bmf[:, c * k:(c + 1) * k], bmf[:, c * k:(c + 1) * k])
-                        for c in range(nc)]).reshape(nc, nf, k, k)
-    Gkk = Gkk + S.static.projected(group)[:, None]
-    return Gyk, Gkk, Gku
-
-
-def _single(S, placed, group, c):
-    """``(G_yk, G_kk, G_ku)`` of candidate ``c`` of ``group`` on all the lines, with its exact
-    static correction (one solve), and ``(psi (N, k), b^T psi (k, k))``."""
-    s = placed.s
-    beta = group.dense(c, S.dof_idx.size)                              # (nd, k)
-    b = np.zeros((S.fe.N, beta.shape[1]))
-    b[S.dof_idx] = beta
-    psi = S.static.correction(b)
-    Fb = beta.T @ psi[S.dof_idx]
-    Fb = 0.5 * (Fb + Fb.T)
-    bm = S.phid.T @ beta
-    Gyk = S.res.transfer(s, S.C.T, bm) + S.static.Fyd[placed.rows] @ beta
-    Gku = S.res.transfer(s, bm, S.B) + beta.T @ S.static.Fdu[:, placed.cols]
-    Gkk = S.res.transfer(s, bm, bm) + Fb
-    return (Gyk, Gkk, Gku), (beta, psi, Fb)
-
-
 def _grids(S, mode):
     """Full screen grid and resonator tunings of each family, and its coarse columns."""
     out = {}
@@ -223,7 +175,7 @@ def _grids(S, mode):
 def _screen(S, placed, H, mode, executor, progress):
     """Three-stage screen: the coarse grid on every :data:`COARSE_EVERY`-th screen line for
     all, the full grid for the best of each family, the best of those again with their exact
-    static correction (:func:`_rescreen`).
+    static correction (:func:`~._exact_screen.rescreen`).
 
     The candidates' transfers are computed chunk by chunk as the chunks run (serially or
     on an executor's threads), on the lines of the stage only: memory grows with a chunk,
@@ -263,19 +215,8 @@ def _screen(S, placed, H, mode, executor, progress):
             j = np.argmin(sc, axis=1)
             best[fi][0][p] = sc[np.arange(p.size), j]
             best[fi][1][p] = cols[j]
-    exact = _rescreen(S, placed, grids, best, base)
+    exact = rescreen(S, placed, grids, best, base)
     return best, grids, exact
-
-
-def _sub(group, members) -> Group:
-    """The candidates ``members`` of ``group`` (their locations, load DOFs and weights)."""
-    return Group(group.name, tuple(group.locations[int(c)] for c in members),
-                 group.idx[members], group.val[members])
-
-
-def _transfers32(S, placed, s, group):
-    """:func:`_transfers` in single precision (what the screen reads)."""
-    return [x.astype(np.complex64) for x in _transfers(S, placed, s, group)]
 
 
 class _Tasks:
@@ -297,57 +238,6 @@ class _Tasks:
             return {**t, "group": fam.group.name, "m": m}
         Gyk, Gkk, Gku = _transfers32(self.S, self.placed, self.s, _sub(fam.group, m))
         return {**t, "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku}
-
-
-def _own_flexibility(S, sub, members) -> np.ndarray:
-    """:func:`~._lowrank.own_flexibility` of the candidates ``sub`` (:func:`_sub` of their
-    group: ``members``), with the diagnosis's ``b^T K^-1 b`` solved so far (``S.kinv``)."""
-    return own_flexibility(S.static, sub, members, S.kinv.setdefault(sub.name, {}),
-                           EXACT_BATCH)
-
-
-def _rescreen(S, placed, grids, best, base) -> set:
-    """The best of each family screened again, on the full grid, with their exact static
-    correction in ``G_kk`` instead of its projection on the test's static corrections
-    (:meth:`StaticTerms.projected`): that projection misses most of the local flexibility
-    of a load far from the tested DOFs (a bar of the far layer of a lattice), which
-    biases its cost upwards and could keep the right candidate out of the finalists.
-    Updates ``best`` in place; returns the ``(family, position)`` screened exactly."""
-    short = {}
-    for fi in grids:
-        c = best[fi][0]
-        n3 = min(c.size, max(EXACT_MIN, int(np.ceil(EXACT_FRAC * c.size))))
-        short[fi] = np.sort(np.argsort(c, kind="stable")[:n3])
-    by_group = {}
-    for fi, pos in short.items():
-        if pos.size:                 # (a family without candidates: none listed there)
-            by_group.setdefault(S.families[fi].group.name, set()).update(
-                S.families[fi].members[pos].tolist())
-    fix = {}
-    for name, ms in by_group.items():
-        group = next(f.group for f in S.families if f.group.name == name)
-        ms = np.array(sorted(ms), int)
-        sub = _sub(group, ms)
-        delta = _own_flexibility(S, sub, ms) - S.static.projected(sub)
-        fix[name] = dict(zip(ms.tolist(), delta.astype(np.complex64)))
-    done = set()
-    for fi, pos in short.items():
-        if not pos.size:
-            continue
-        fam = S.families[fi]
-        grid, extra, _ = grids[fi]
-        m = fam.members[pos]
-        Gyk, Gkk, Gku = _transfers32(S, placed, base["s"], _sub(fam.group, m))
-        Gkk = Gkk + np.stack([fix[fam.group.name][int(c)] for c in m])[:, None]
-        t = {**base, "kind": fam.kind, "sizes": grid[pos], "Gyk": Gyk, "Gkk": Gkk,
-             "Gku": Gku, "extra": None if extra is None else (extra[0][pos],
-                                                              extra[1][pos])}
-        sc = screen_chunk(t)
-        j = np.argmin(sc, axis=1)
-        best[fi][0][pos] = sc[np.arange(pos.size), j]
-        best[fi][1][pos] = j
-        done.update((fi, int(p)) for p in pos)
-    return done
 
 
 def _screen_chunks(S, grids, sel, every=1) -> list:
