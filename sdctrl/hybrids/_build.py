@@ -281,12 +281,12 @@ def _auto(setup, nm, c, loads, static_b, response):
 
     names = tuple(dict.fromkeys(SAME_PREDICTIONS.get(k, k) for k in full))
     scores = held_out_scores(builder(()), nm, c, loads, names, response=response)
-    kept, trials = (), ()
+    kept, trials, held = (), (), {}
     if offered:
         hz, Href = reference_lines(nm)
         base = (logls(full["identified"].frf(hz).H, Href),
                 None if scores is None else scores[2]["identified"])
-        kept, trials = trial_out_of_band(
+        kept, trials, held = trial_out_of_band(
             offered, lambda poles: _variants(setup, nm, c, loads, ("identified",),
                                              static_b=static_b, prior=prior, response=response,
                                              out_of_band=poles)[0]["identified"],
@@ -294,7 +294,10 @@ def _auto(setup, nm, c, loads, static_b, response):
     if kept:
         full = _variants(setup, nm, c, loads, candidates, static_b=static_b, prior=prior,
                          response=response, out_of_band=kept)[0]
-        scores = held_out_scores(builder(kept), nm, c, loads, names, response=response)
+        if scores is not None:       # "fe" does not use the measured frequencies
+            per = held[kept[0]] if len(kept) == 1 else held_out_scores(
+                builder(kept), nm, c, loads, ("identified",), response=response)[2]["identified"]
+            scores = (scores[0], scores[1], {**scores[2], "identified": per})
     chosen, record = choose_residual(builder(kept), nm, c, loads, full, response=response,
                                      scores=scores)
     model = full[chosen]

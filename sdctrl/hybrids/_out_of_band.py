@@ -61,10 +61,13 @@ def trial_out_of_band(offered, build_full, builder, nm, c, loads, base, *, respo
     kept : tuple of int
         Indices in ``nm.residual.poles`` of the poles kept.
     trials : tuple of OutOfBandTrial
+    held : dict of int to list of float
+        Per kept pole, the held-out scores per fold of the hybrid with it alone (reused
+        when it is the only one kept).
     """
     hz, Href = reference_lines(nm)
     nominal0, per0 = base
-    kept, trials = [], []
+    kept, trials, held_per = [], [], {}
     for i, fe_hz in offered:
         nominal = logls(build_full((i,)).frf(hz).H, Href)
         held = None
@@ -74,10 +77,11 @@ def trial_out_of_band(offered, build_full, builder, nm, c, loads, base, *, respo
                                      response=response)
             held = float(np.mean(scores[2]["identified"]))
             ok = held < float(np.mean(per0))
+            held_per[i] = scores[2]["identified"]
         trials.append(OutOfBandTrial(
             pole_hz=float(abs(nm.residual.poles[i]) / (2 * np.pi)), fe_hz=fe_hz,
             nominal=(float(nominal0), float(nominal)),
             held_out=None if held is None else (float(np.mean(per0)), held), kept=bool(ok)))
         if ok:
             kept.append(i)
-    return tuple(kept), tuple(trials)
+    return tuple(kept), tuple(trials), {i: held_per[i] for i in kept if i in held_per}
