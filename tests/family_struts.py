@@ -11,6 +11,7 @@ modes up to 60 with the static correction of the shakers and of the strut, close
 strut loop (5.3)-(5.4).
 """
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,3 +108,18 @@ def figures(st, nm, h, h_minus, n=300) -> Figures:
     return Figures(logls(h.frf(freq, "acceleration"), ref), logls(nm.frf(freq, "acceleration"),
                                                                   ref),
                    ratios[0], ratios[1], shaker, abs(r_h / r_true - 1), abs(r_fe / r_true - 1))
+
+
+def identified_models(st, noise, weighting=None):
+    """The normal-mode models of ``st``'s test (seed 1, 400 lines) with every shaker and
+    without the last one, from ``sd.identify``'s default fit or the given ``weighting``."""
+    SH = list(st.shakers)
+    frf = st.frf(n=400, noise=noise, seed=1)
+    kw = {"progress": False} if weighting is None else {"progress": False,
+                                                        "weighting": weighting}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        nm = sd.normal_modes(sd.identify(frf, **kw), std=False)
+        nm_minus = sd.normal_modes(sd.identify(frf.select(actuators=SH[:-1]), **kw),
+                                   std=False)
+    return nm, nm_minus

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from family_struts import figures, pick_bar, with_strut
+from family_struts import figures, identified_models, pick_bar, with_strut
 from sdctrl.hybrids._auto import TIE
 
 #: measured figures per (member, noise), the default hybrid (``residual="auto"``): logLS of the
@@ -137,16 +137,7 @@ def _models(name, noise, weighting=None):
     """The member, its normal-mode models with every shaker and without the last one
     (``sd.identify``'s default fit, or the given ``weighting``)."""
     st = sd.testbeds.structure(name)
-    SH = list(st.shakers)
-    frf = st.frf(n=400, noise=noise, seed=1)
-    kw = {"progress": False} if weighting is None else {"progress": False,
-                                                        "weighting": weighting}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        nm = sd.normal_modes(sd.identify(frf, **kw), std=False)
-        nm_minus = sd.normal_modes(sd.identify(frf.select(actuators=SH[:-1]), **kw),
-                                   std=False)
-    return st, nm, nm_minus
+    return (st,) + identified_models(st, noise, weighting)
 
 
 @functools.lru_cache(maxsize=None)

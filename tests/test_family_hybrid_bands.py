@@ -21,7 +21,7 @@ import warnings
 import pytest
 
 import sdctrl as sd
-from family_struts import figures
+from family_struts import figures, identified_models
 
 #: (member, band, noise): (nominal logLS, normal-mode model's, D-strut, broken strut,
 #: untested shaker, RMS error of the hybrid), measured
@@ -45,12 +45,9 @@ SHAKER_GAP = {"cluster"}
 def _figures(name, band, noise):
     st = dataclasses.replace(sd.testbeds.structure(name), band=band)
     SH, SE = list(st.shakers), list(st.sensors)
-    frf = st.frf(n=400, noise=noise, seed=1)
+    nm, nm_minus = identified_models(st, noise)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        nm = sd.normal_modes(sd.identify(frf, progress=False), std=False)
-        nm_minus = sd.normal_modes(sd.identify(frf.select(actuators=SH[:-1]), progress=False),
-                                   std=False)
         h = sd.hybrid(st.wrong(), nm, SE, SH)
         h_minus = sd.hybrid(st.wrong(), nm_minus, SE, SH[:-1])
         return figures(st, nm, h, h_minus)

@@ -180,7 +180,7 @@ def test_auto_sharing_one_static_solve_is_the_model_of_a_solve_per_build(name):
     f_fe, phi_fe = b.fe_modes_upto(wrong, max(fmax, 1.05 * np.sqrt(w2.max()) / (2 * np.pi)),
                                    nm.n)
     setup = b._Setup(wrong, f_fe, phi_fe, mac_min, "regularised")
-    loads, _ = b.test_loads(wrong, nm, bb)
+    loads, _ = b.placed_loads(wrong, nm, bb)
     calls = []
 
     def held_out(m, loads, response, j):        # the plain with_io, no shared column

@@ -10,7 +10,9 @@
    update (rank 1, 3, or up to 6 for a beam) on a subset of lines, in single precision, log-magnitude logLS:
    a coarse grid on half those lines for all, the full grid for the best share of each
    family, and the best of those again with their exact static correction (their own
-   flexibility, one solve each; the screen projects it on the test's static corrections) --
+   flexibility, one solve each; the screen projects it on the test's static corrections)
+   and, for the best of those, their cost refined in size between grid points
+   (:mod:`._exact_screen`) --
    batched over candidates, in chunks that an executor may run anywhere (the chunks and
    their order do not depend on the executor, so the ranking is identical); what every
    chunk reads (the data's lines) is shared, scattered once on a Dask client;

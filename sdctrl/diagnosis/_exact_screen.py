@@ -181,6 +181,5 @@ def _exact_task(S, placed, base, grids, fi, pos, fix) -> dict:
     m = fam.members[pos]
     Gyk, Gkk, Gku = transfers32(S, placed, base["s"], sub_group(fam.group, m))
     Gkk = Gkk + np.stack([fix[fam.group.name][int(c)] for c in m])[:, None]
-    t = {**base, "kind": fam.kind, "sizes": grid[pos], "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
-         "extra": None if extra is None else (extra[0][pos], extra[1][pos])}
-    return t
+    return {**base, "kind": fam.kind, "sizes": grid[pos], "Gyk": Gyk, "Gkk": Gkk, "Gku": Gku,
+            "extra": None if extra is None else (extra[0][pos], extra[1][pos])}

@@ -51,7 +51,7 @@ from sdctrl.hybrids._tested_io import TestedIO, keep_tested, realise_residual
 from sdctrl.updating._costs import logls
 from sdctrl.hybrids._auto import (SAME_PREDICTIONS, choose_residual, has_tested,
                                   held_out_scores, reference_lines)
-from sdctrl.hybrids._io_checks import measured_w2, placed_io, test_loads, warn_left_out
+from sdctrl.hybrids._io_checks import measured_w2, placed_io, placed_loads, warn_left_out
 
 __all__ = ["hybrid", "pairing_report"]
 
@@ -247,7 +247,7 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
         f_fe, phi_fe = fe_modes_upto(fe, max(fmax, 1.05 * float(f_id.max())), nm.n)
         setup = _Setup(fe, f_fe, phi_fe, mac_min, expansion)
         warn_left_out(nm)
-        loads, unexcited = test_loads(fe, nm, b)
+        loads, unexcited = placed_loads(fe, nm, b)
         if unexcited:
             warnings.warn("hybrid: nm.actuators are not FE DOF labels, so the appended FE "
                           "modes are not excited by the model's inputs; give actuator_b",

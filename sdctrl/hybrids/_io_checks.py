@@ -4,8 +4,8 @@
 input shapes ``actuator_b`` on the FE DOFs (arrays or DOF labels); :func:`placed_io` gives them
 as arrays, with one row (column) per sensor (input) of the identified model and entries of a
 usable scale; :func:`measured_w2` checks the identified model and the pairing options,
-:func:`test_loads` places its inputs and :func:`warn_left_out` warns about the poles left
-out of it.
+:func:`placed_loads` places its inputs and :func:`warn_left_out` warns about the poles
+left out of it.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 from sdctrl._lib.validate import check_scalar
 from sdctrl.fe._fe_checks import shapes_on_dofs
 
-__all__ = ["measured_w2", "placed_io", "test_loads", "warn_left_out"]
+__all__ = ["measured_w2", "placed_io", "placed_loads", "warn_left_out"]
 
 
 def placed_io(fe, nm, sensor_c, actuator_b):
@@ -65,7 +65,7 @@ def warn_left_out(nm) -> None:
                       stacklevel=3)
 
 
-def test_loads(fe, nm, b):
+def placed_loads(fe, nm, b):
     """Physical test inputs: ``actuator_b``, point forces at ``nm.actuators`` labels, or
     None, and whether the appended modes stay unexcited."""
     if b is not None:
