@@ -52,6 +52,7 @@ from sdctrl.updating._costs import logls
 from sdctrl.hybrids._auto import (SAME_PREDICTIONS, choose_residual, has_tested,
                                   held_out_scores, reference_lines)
 from sdctrl.hybrids._io_checks import measured_w2, placed_io, placed_loads, warn_left_out
+from sdctrl.hybrids._pairing_rules import absorbed, mean_damping, warn_poor
 
 __all__ = ["hybrid", "pairing_report"]
 
@@ -332,20 +333,20 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
     w2_id = np.clip(np.diag(nm.Omega), 0, None)
     f_id = np.sqrt(w2_id) / (2 * np.pi)
     fe_idx, mac_pairs, macs = pair_modes(c @ phi_fe, nm.cphi, f_fe, f_id)
-    kept = ~_absorbed(nm, mac_pairs, setup.mac_min)
+    kept = ~absorbed(nm, mac_pairs, setup.mac_min)
     km = np.flatnonzero(kept)
     if c.shape[0] < km.size:
         warnings.warn(f"hybrid: {c.shape[0]} sensors for {km.size} measured modes; the "
                       "expansion (4.7) needs more sensors than modes to be determined",
                       stacklevel=3)
-    poor = _warn_poor(km, mac_pairs, setup.mac_min, fe_idx, f_id, f_fe)
+    poor = warn_poor(km, mac_pairs, setup.mac_min, fe_idx, f_id, f_fe)
     base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
                        fe_idx[kept], setup.expansion, prior, response)
     # appended FE modes the test measured as residual dynamics take the measured frequency
     base.appended_test_w2 = measured_appended_w2(nm, c, phi_fe, f_fe, base.appended_w2,
                                                  setup.mac_min, out_of_band)
     offered = out_of_band_candidates(nm, c, phi_fe, f_fe, base.appended_w2, setup.mac_min)
-    zeta_mean = _mean_damping(nm, np.sqrt(w2_id), kept)
+    zeta_mean = mean_damping(nm, np.sqrt(w2_id), kept)
     pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],
                           test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)
     built = HybridConstruction(pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept),
@@ -416,30 +417,7 @@ def _keep_tested(nm, built, tested, w_band):
                               residual=replace(built.residual, variant=variant))
 
 
-def _warn_poor(km, mac_pairs, mac_min, fe_idx, f_id, f_fe) -> np.ndarray:
-    """Kept test modes ``km`` poorly paired (MAC below ``mac_min``), warned about."""
-    poor = np.flatnonzero(mac_pairs[km] < mac_min)
-    if poor.size:
-        desc = ", ".join(f"test mode {km[j]} ({f_id[km[j]]:.2f} Hz) ~ FE mode "
-                         f"{fe_idx[km[j]]} ({f_fe[fe_idx[km[j]]]:.2f} Hz), MAC "
-                         f"{mac_pairs[km[j]]:.2f}" for j in poor)
-        warnings.warn(f"hybrid: poor FE/test mode pairing (MAC < {mac_min:g}): {desc}",
-                      stacklevel=3)
-    return poor
 
-
-def _absorbed(nm, mac_pairs, mac_min) -> np.ndarray:
-    """Out-of-band identified poles that pair poorly: absorbed into the residual terms."""
-    ib = _in_band(nm)
-    if ib is None:
-        return np.zeros(nm.n, bool)
-    return ~np.asarray(ib, bool) & (mac_pairs < mac_min)
-
-
-def _in_band(nm):
-    """Per mode of ``nm``, in the identified band (``nm.properness.in_band``), or None."""
-    ib = None if nm.properness is None else nm.properness.in_band
-    return None if ib is None or np.shape(ib) != (nm.n,) else np.asarray(ib, bool)
 
 
 def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:
@@ -473,16 +451,3 @@ def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:
     off = np.hstack([modes.offset[:, keep], np.zeros((modes.offset.shape[0], V.shape[1]))])
     return ModeSet(np.hstack([modes.shapes[:, keep], V]), np.concatenate([modes.w2[keep], wc2]),
                    G, pb, np.concatenate([modes.kind[keep], label]), off)
-
-
-def _mean_damping(nm, w_id, kept) -> float:
-    """Mean damping ratio of the kept in-band measured modes, given to the appended FE
-    modes (5.1.1)."""
-    use = kept.copy()
-    ib = _in_band(nm)
-    if ib is not None and np.any(use & ib):
-        use &= np.asarray(ib, bool)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        zeta = np.diag(nm.Gamma) / (2 * w_id)
-    zeta = zeta[use & (w_id > 0)]
-    return float(np.mean(zeta)) if zeta.size else 0.0
