@@ -453,3 +453,21 @@ def test_confounded_verdict_agrees_with_the_scatter_of_updates():
                                         actuators=dofs[:1]), pars, damping="fe", noise=level)
     assert loud.std["a"] == pytest.approx(0.5, rel=1e-6) and loud.weak == []
     assert loud.confounded == [("a", "b")]
+
+
+def test_normal_mode_std_steps_the_other_way_where_properness_is_lost():
+    """A nominal near the properness limit (3.52) may lose it on one side of a finite-
+    difference step: the difference is then taken the other way, not every std made NaN (a
+    held-out aircraft test with two of three shakers at 1%: ``nm.std`` was all NaN)."""
+    from sdctrl.identification._normal_statistics import _difference
+
+    def f(h):                                   # no transform for positive steps
+        if h > 0:
+            raise ValueError("cm: the Riccati equation (3.52) has no small real root")
+        return np.array([3.0 + 2.0 * h, -h])
+
+    y0 = np.array([3.0, 0.0])
+    assert np.allclose(_difference(f, y0, 1e-3), [2.0, -1.0])
+    assert np.allclose(_difference(lambda h: y0 + 5 * h, y0, 1e-3), [5.0, 5.0])
+    with pytest.raises(ValueError):
+        _difference(lambda h: (_ for _ in ()).throw(ValueError("both sides")), y0, 1e-3)

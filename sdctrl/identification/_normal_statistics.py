@@ -100,9 +100,8 @@ def _sampled_variance(cm, stats, C0, nm, transform, n_samples=None, seed=0):
     sd_C = float(np.sqrt(np.mean(np.einsum("mpp->mp", stats.V)))) or 1e-300
 
     def slope(dtheta, dC, size):
-        h = STEP * size
-        y = _outputs(transform(_model(cm, stats, theta0 + h * dtheta, C0 + h * dC)), nm)
-        return (y - y0) / h
+        return _difference(lambda h: _outputs(transform(_model(
+            cm, stats, theta0 + h * dtheta, C0 + h * dC)), nm), y0, STEP * size)
 
     T_theta, Z, Y = (np.zeros((y0.size, n2)) for _ in range(3))
     zero_t, zero_c = np.zeros(n2), np.zeros_like(C0)
@@ -176,9 +175,10 @@ def _jacobian(cm, stats, C0, nm, transform):
         h = STEP * sd_theta[a] or 1e-9 * max(np.abs(theta0).max(), 1e-300)
         if a % 2 == 0 and theta0[a] + h >= 0:    # a pole at the damping floor stays stable
             h = -h
-        th = theta0.copy()
-        th[a] += h
-        T_theta[:, a] = (_outputs(transform(_model(cm, stats, th, C0)), nm) - y0) / h
+        e = np.zeros(theta0.size)
+        e[a] = 1.0
+        T_theta[:, a] = _difference(lambda x: _outputs(transform(_model(
+            cm, stats, theta0 + x * e, C0)), nm), y0, h)
     q, m = C0.shape
     T = np.zeros((m, y0.size, q))
     scale = np.abs(C0).max(axis=1)
@@ -186,10 +186,20 @@ def _jacobian(cm, stats, C0, nm, transform):
     for c in range(m):
         for p in range(rows):
             h = STEP * sd_C[p, c] or 1e-9 * max(scale[p], 1e-300)
-            C = C0.copy()
-            C[p, c] += h
-            T[c, :, p] = (_outputs(transform(_model(cm, stats, theta0, C)), nm) - y0) / h
+            E = np.zeros_like(C0)
+            E[p, c] = 1.0
+            T[c, :, p] = _difference(lambda x: _outputs(transform(_model(
+                cm, stats, theta0, C0 + x * E)), nm), y0, h)
     return T_theta, T
+
+
+def _difference(f, y0, h):
+    """``(f(h) - y0) / h``; where the perturbed model cannot be transformed (properness
+    lost on one side of a nominal near its limit, 3.52) the step is taken the other way."""
+    try:
+        return (f(h) - y0) / h
+    except ValueError:
+        return (f(-h) - y0) / -h
 
 
 def _size(nm):
