@@ -52,6 +52,7 @@ from sdctrl.updating._costs import logls
 from sdctrl.hybrids._auto import (SAME_PREDICTIONS, choose_residual, has_tested,
                                   held_out_scores, reference_lines)
 from sdctrl.hybrids._io_checks import measured_w2, placed_io, placed_loads, warn_left_out
+from sdctrl.hybrids._mass_scale import fe_mass_scale, test_scale_std
 from sdctrl.hybrids._pairing_rules import absorbed, mean_damping, warn_poor
 
 __all__ = ["hybrid", "pairing_report"]
@@ -88,7 +89,12 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       ``nm.phib`` (offsets of ``c phi_Ex`` carried like ``E`` below: dropped by
       :meth:`~sdctrl.hybrids._predictions.HybridModel.with_io`).
       ``expansion="paired"`` is the thesis's ``A = (c phi_FE)^+ (c phi)_ID`` on the
-      paired FE modes;
+      paired FE modes.  The expanded shapes' scale: the test's (collocated residues, 3.24)
+      combined with the FE modal mass ``phi_Ex^T M phi_Ex`` by their variances (``nm.std``
+      against the FE's spread learnt from the modes), so a mode the tested inputs barely
+      excite takes the FE's scale and a well-measured one keeps the test's
+      (:mod:`sdctrl.hybrids._mass_scale`, ``construction.mass_scale``; nothing is rescaled
+      when ``nm`` has no statistics);
     - out-of-band identified poles (``nm.properness.in_band`` False) that pair with an FE
       mode (MAC >= ``mac_min``) are kept as measured modes; the others (poles that absorb
       what lies beyond the band) are absorbed into the residual terms below
@@ -342,6 +348,12 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
     poor = warn_poor(km, mac_pairs, setup.mac_min, fe_idx, f_id, f_fe)
     base = build_basis(fe, w2_id[kept], nm.cphi[:, kept], c, loads, f_fe, phi_fe,
                        fe_idx[kept], setup.expansion, prior, response)
+    # the FE modal mass's scale where the test's collocated residues cannot scale a mode
+    ratio = np.log(f_id[kept] / f_fe[fe_idx[kept]])
+    scale = fe_mass_scale(fe.M, base.expanded, test_scale_std(nm, kept), km,
+                          ratio - np.median(ratio))
+    if scale is not None:
+        base.expanded, base.A = base.expanded * scale.factor, base.A * scale.factor
     # appended FE modes the test measured as residual dynamics take the measured frequency
     base.appended_test_w2 = measured_appended_w2(nm, c, phi_fe, f_fe, base.appended_w2,
                                                  setup.mac_min, out_of_band)
@@ -351,7 +363,7 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
                           test_hz=f_id[kept], fe_hz=f_fe[fe_idx[kept]], poor=poor)
     built = HybridConstruction(pairing=pairing, mac=macs, absorbed=np.flatnonzero(~kept),
                                expansion=base.A, mean_damping=zeta_mean,
-                               fe_frequency_hz=f_fe)
+                               fe_frequency_hz=f_fe, mass_scale=scale)
     w_band = band_lines(nm, np.sqrt(w2_id[kept]))
     common = _Common(fe, nm, kept, base, c, loads, zeta_mean, built, w_band, static_b)
     fits = {}                     # "tested" appends its FE modes as "identified" does

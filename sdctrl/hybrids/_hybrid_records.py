@@ -16,7 +16,8 @@ import numpy as np
 from sdctrl._lib.frozen import FrozenState
 from sdctrl._lib.records import freeze_arrays
 
-__all__ = ["KINDS", "HybridConstruction", "ModePairing", "ResidualChoice", "pairing_report"]
+__all__ = ["KINDS", "HybridConstruction", "MassScale", "ModePairing", "ResidualChoice",
+           "pairing_report"]
 
 #: origins of the modes of a hybrid model (``HybridModel.kind``)
 KINDS = ("measured", "fe", "residual", "static")
@@ -128,6 +129,38 @@ class OutOfBandTrial(FrozenState):
 
 
 @dataclass(frozen=True, eq=False)
+class MassScale(FrozenState):
+    """The scale of the measured modes' expanded shapes: the test's and the FE modal mass's,
+    combined by their variances (:mod:`sdctrl.hybrids._mass_scale`).
+
+    Attributes
+    ----------
+    test_mode : ndarray of int
+        The measured modes (indices in the identified model).
+    test_std : ndarray
+        Relative standard deviation of the test's scale of each (from ``nm.std``).
+    fe_log : ndarray
+        ``-1/2 log(phi_Ex^T M phi_Ex)``: the log scale error the FE's mass reads.
+    factor : ndarray
+        Factor applied to each expanded shape (1: the test's scale kept).
+    std : ndarray
+        Standard deviation of ``log(factor)`` (the combined scale's).
+    bias : float
+        The log scale error common to every mode (an FE mass error).
+    spread : float
+        Standard deviation of the FE's own error, mode to mode (``tau``).
+    """
+
+    test_mode: np.ndarray
+    test_std: np.ndarray
+    fe_log: np.ndarray
+    factor: np.ndarray
+    std: np.ndarray
+    bias: float
+    spread: float
+
+
+@dataclass(frozen=True, eq=False)
 class HybridConstruction(FrozenState):
     """What :func:`sdctrl.hybrid` found while building the model (5.1.1, 4.7).
 
@@ -157,6 +190,9 @@ class HybridConstruction(FrozenState):
     out_of_band : tuple of OutOfBandTrial
         With ``residual="auto"``: the out-of-band poles tried as appended FE modes'
         frequencies, kept or not, and the scores that decided.
+    mass_scale : MassScale or None
+        The measured modes' scale, the test's and the FE modal mass's combined (None when
+        ``nm`` carries no statistics).
     """
 
     pairing: ModePairing | None = None
@@ -169,6 +205,7 @@ class HybridConstruction(FrozenState):
     residual_flexibility: np.ndarray | None = None
     mass_correction: np.ndarray | None = None
     out_of_band: tuple = ()
+    mass_scale: MassScale | None = None
 
     def __post_init__(self):
         freeze_arrays(self)

@@ -154,4 +154,5 @@ register_attrs("CollocatedPassivity",
 register_attrs("ModePairing", "sdctrl.hybrids._hybrid_records:ModePairing")
 register_attrs("ResidualChoice", "sdctrl.hybrids._hybrid_records:ResidualChoice")
 register_attrs("OutOfBandTrial", "sdctrl.hybrids._hybrid_records:OutOfBandTrial")
+register_attrs("MassScale", "sdctrl.hybrids._hybrid_records:MassScale")
 register_attrs("HybridConstruction", "sdctrl.hybrids._hybrid_records:HybridConstruction")
