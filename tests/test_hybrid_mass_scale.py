@@ -197,3 +197,12 @@ def test_mass_scale_is_stored():
     for name in ("test_mode", "test_std", "fe_log", "factor", "std"):
         assert np.array_equal(getattr(back, name), getattr(ms, name))
     assert back.bias == ms.bias and back.spread == ms.spread
+
+
+def test_pairing_report_shows_the_scale():
+    _, _, h, h0 = _cluster(1)
+    rows = sd.hybrids.pairing_report(h).splitlines()
+    assert rows[0].endswith("| MAC | scale |") and len(rows) == 2 + 5
+    assert rows[2].endswith("| 2.805 +- 0.045 |")             # 10.15 Hz, the FE's scale
+    assert rows[-1].endswith("| 1.000 +- 0.010 |")            # 36.98 Hz, the test's
+    assert sd.hybrids.pairing_report(h0).splitlines()[0].endswith("| MAC |")

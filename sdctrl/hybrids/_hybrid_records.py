@@ -223,17 +223,21 @@ def pairing_report(model) -> str:
     -------
     str
         One row per measured mode: test and FE frequencies (Hz), their ratio and the MAC,
-        poor pairs flagged.
+        poor pairs flagged; with ``construction.mass_scale``, the factor applied to the
+        expanded shape and its standard deviation (relative).
     """
     built = getattr(model, "construction", None)
     p = None if built is None else built.pairing
     if p is None or p.test_mode is None:
         raise ValueError("model has no pairing information (not built by hybrid)")
     poor = set(np.asarray(() if p.poor is None else p.poor).tolist())
-    rows = ["| test mode | test Hz | FE mode | FE Hz | FE/test | MAC |",
-            "|---:|---:|---:|---:|---:|---:|"]
+    ms = built.mass_scale
+    extra = ("", "") if ms is None else (" scale |", "---:|")
+    rows = ["| test mode | test Hz | FE mode | FE Hz | FE/test | MAC |" + extra[0],
+            "|---:|---:|---:|---:|---:|---:|" + extra[1]]
     for j in range(p.test_mode.size):
         flag = " (poor)" if j in poor else ""
+        scale = "" if ms is None else f" {ms.factor[j]:.3f} +- {ms.std[j]:.3f} |"
         rows.append(f"| {j} | {p.test_hz[j]:.3f} | {p.fe_mode[j]} | {p.fe_hz[j]:.3f} "
-                    f"| {p.fe_hz[j] / p.test_hz[j]:.4f} | {p.mac[j]:.3f}{flag} |")
+                    f"| {p.fe_hz[j] / p.test_hz[j]:.4f} | {p.mac[j]:.3f}{flag} |{scale}")
     return "\n".join(rows)
