@@ -402,3 +402,34 @@ def _matrix_std(prop, coords, cov, name, shape):
             elif isinstance(key, tuple) and key[0] == name:     # one entry
                 out[key[1]] = np.sqrt(max(diag[k], 0.0))
     return out if np.all(np.isfinite(diag)) else np.full(shape, np.nan)
+
+
+#: the parameter that sets the size of each kind of effect whose size must be determined
+#: (a missing mode: its damping, which tells a resonance from a broadband trend)
+SIZES = {"added_damper": "c", "mass_change": "dm", "stiffness_change": "dk", "delay": "tau",
+         "missing_mode": "damping"}
+#: a size must lie this many of its standard deviations from zero (as the acceptance's 3 std)
+DETERMINED = 3.0
+
+
+def undetermined(props, model, placed0, sigma2) -> str | None:
+    """Why the last effect of ``props`` (fitted jointly with the others on ``model``) is not
+    determined by the data, or None.
+
+    A cost that falls significantly (the chi-square test of :func:`diagnose`) says that
+    *something* explains the data better; the size must also be known.  A dashpot driven to
+    a rigid link (its cost flat in ``c``), a "mode" whose damping is as uncertain as it is
+    large (a broadband trend), absorb model error without telling its size: their size
+    lies within ``DETERMINED`` standard deviations (:func:`joint_std`, the larger of the
+    noise's and the sensors' scatter) of zero.
+    """
+    p = props[-1]
+    key = SIZES.get(p["kind"])
+    v = p["parameters"].get(key) if key else None
+    if v is None or not np.isscalar(v):
+        return None
+    s = joint_std(props, model, placed0, placed0, sigma2)[-1].get(key)
+    if s is None or not np.isfinite(s) or abs(v) >= DETERMINED * s:
+        return None
+    return (f"its size is not determined by the data ({key} = {v:.4g} +- {s:.2g}: within "
+            f"{DETERMINED:g} standard deviations of zero)")

@@ -20,14 +20,9 @@ from sdctrl._lib.validate import check_executor, check_int, check_scalar
 from sdctrl.diagnosis._apply import DelayedModel, apply_effect
 from sdctrl.diagnosis._band_rules import in_band, trend
 from sdctrl.diagnosis._candidates import Candidates, candidate_groups
-from sdctrl.diagnosis._effect_statistics import joint_std
-from sdctrl.diagnosis._global_effects import (
-    fit_delay,
-    fit_free_mode,
-    fit_nonproportional,
-    fit_residual_terms,
-    leaves_region,
-)
+from sdctrl.diagnosis._effect_statistics import joint_std, undetermined
+from sdctrl.diagnosis._global_effects import (fit_delay, fit_free_mode, fit_nonproportional,
+                                              fit_residual_terms, leaves_region)
 from sdctrl.diagnosis._joint_fit import pruned, refit, shed_trends
 from sdctrl.diagnosis._locations import checked_locations
 from sdctrl.diagnosis._placed_data import place
@@ -57,6 +52,9 @@ MAX_STEPS = 50
 N_RUNNERS = 8
 #: candidates tried in turn in a step when a joint refit rejects the best
 N_TRIES = 3
+#: why a candidate whose joint refit left a free mode's region is rejected
+EDGE = ("its joint refit moved a free mode onto the edge of its region (a broadband trend, "
+        "not a mode)")
 #: after an effect, the next scan is skipped when even a noise level this share of the
 #: data's noise floor leaves less error than an effect must remove (:func:`_exhausted`)
 NOISE_SHARE = 0.9
@@ -375,9 +373,9 @@ def _accepted(best, J, J0, sigma2) -> bool:
 @dataclass(frozen=True, eq=False)
 class _Extension:
     """The effects after a step (None: nothing added), the corrected model, the candidates
-    rejected because their joint refit left a free mode's region and the indices of the
-    earlier effects the new one made redundant (:func:`._joint_fit.pruned`); the corrected
-    model's response and cost when the joint refit computed them (else None)."""
+    rejected (:func:`_extended`) and the indices of the earlier effects the new one made
+    redundant (:func:`._joint_fit.pruned`); the corrected model's response and cost when the
+    joint refit computed them (else None)."""
 
     trial: list | None
     model: object
@@ -391,24 +389,31 @@ def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
     """The first ranked proposal that passes the test (:func:`_accepted`; ``errors`` is
     ``(J, J0, sigma2)``) and whose joint refit with the effects already accepted keeps every
     free mode in its region (a mode refitted onto the region's edge is a broadband trend,
-    not a mode: the next candidate is tried, at most ``N_TRIES``)."""
+    not a mode: the next candidate is tried, at most ``N_TRIES``).  When the best
+    explanation left has no determined size (:func:`undetermined`), nothing is added: a
+    lower-ranked effect would only absorb what it leaves."""
     rejected = []
     for best in props[:N_TRIES]:
         if not _accepted(best, *errors):
             break
-        if not accepted:               # a lone effect keeps its own fit (fit_free_mode's)
+        fit = None                     # a lone effect keeps its own fit (fit_free_mode's)
+        if accepted:
+            fit, shed = shed_trends(model, accepted + [best],
+                                    refit(model, accepted + [best], placed0, errors[2]),
+                                    placed0, errors[2])
+        why = (EDGE if fit is not None and any(leaves_region(q, placed0.omega)
+                                               for q in fit.props)
+               else undetermined(fit.props if fit else [best], model, placed0, errors[2]))
+        if why is None and fit is None:
             return _Extension([best], apply_effect(current, best, placed0), rejected)
-        fit, shed = shed_trends(model, accepted + [best],
-                                refit(model, accepted + [best], placed0, errors[2]), placed0,
-                                errors[2])
-        if not any(leaves_region(q, placed0.omega) for q in fit.props):
+        if why is None:
             fit, dropped = pruned(model, fit, placed0, errors[2])
             kept = [i for i in range(len(accepted) + 1) if i not in shed]
             dropped = sorted(shed + [kept[j] for j in dropped])
             return _Extension(fit.props, fit.model, rejected, tuple(dropped), fit.H, fit.J)
-        rejected.append({"kind": best["kind"], "location": best["location"],
-                         "reason": "its joint refit moved a free mode onto the edge of its "
-                                   "region (a broadband trend, not a mode)"})
+        rejected.append({"kind": best["kind"], "location": best["location"], "reason": why})
+        if why is not EDGE:            # the best explanation left has no size: stop
+            break
     return _Extension(None, current, rejected)
 
 
