@@ -215,27 +215,27 @@ def diagnose(model, frf, fe=None, executor=None, *, band=None, reach: float | No
     exceeds what noise alone would remove by chance in a search over that many candidates --
     under the null hypothesis (residual = complex Gaussian noise of variance ``sigma^2``,
     estimated from the data) ``T = 2 N (J - J_e) / sigma^2`` is chi-square with ``k`` (its
-    number of parameters) degrees of freedom, and the Bonferroni bound over the ``M``
-    hypotheses of the step (every family's locations, lines or channels together), ``M
-    P(chi^2_k > T)``, must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the
-    error above the noise level and 0.1% of the initial one (a second effect may be
-    much smaller than the first).  After an effect, the next scan is not run when no
-    effect could pass (b) any more: an effect cannot remove the measurement noise, so when
-    the error left less 0.9 x a low estimate of the noise (robust to correlated
-    neighbouring lines) is below the share (b) asks, the search stops
-    (said in :attr:`Diagnosis.steps`; the result is the one the scan would give).  A free
-    extra mode stays a mode: when the joint refit of
-    the effects moves it onto the edge of its region (frequency 0.8-1.2 times the band's
-    ends, damping ratio 0.5) it is a broadband trend, and the step's next significant
-    candidate is tried instead (said in :attr:`Diagnosis.steps` and the report).  An extra
-    mode found inside the
-    band (its peak and half-power points in it) and significant excludes the residual
+    number of parameters) degrees of freedom, and the Bonferroni bound over the ``M`` hypotheses
+    of the step (every family's locations, lines or channels together), ``M P(chi^2_k > T)``,
+    must be below ``ALPHA = 1e-3`` -- and (b) it removes at least 5% of the error above the
+    noise level and 0.1% of the initial one (a second effect may be much smaller than the
+    first). After an effect, the next scan is not run when no effect could pass (b) any more: an
+    effect cannot remove the measurement noise, so when the error left less 0.9 x a low estimate
+    of the noise (robust to correlated neighbouring lines) is below the share (b) asks, the
+    search stops (said in :attr:`Diagnosis.steps`; the result is the one the scan would give).
+    (c) Its size must be determined: more than 3 standard deviations from zero (the dashpot,
+    mass, spring or delay; a missing mode's damping), else nothing is added in that step (a
+    dashpot driven to a rigid link, a "mode" as uncertain in damping as it is damped, absorb
+    model error without a size). A free extra mode stays a mode: when the joint refit of the
+    effects moves it onto the edge of its region (frequency 0.8-1.2 times the band's ends,
+    damping ratio 0.5) it is a broadband trend, and the step's next significant candidate is
+    tried instead (said in :attr:`Diagnosis.steps` and the report). An extra mode found inside
+    the band (its peak and half-power points in it) and significant excludes the residual
     flexibility/mass terms of that step: those stand for effects outside the band and would
-    otherwise absorb a missing in-band mode.  Physical candidates
-    are evaluated by reanalysis (4.17), (5.2): the change is a low-rank feedback on its load
-    shape (4.22), completed by its static correction (4.23), evaluated on all lines at once by
-    a Woodbury update of the model's complex modes; a vectorised screen ranks them all, the
-    best are fitted on all the data.
+    otherwise absorb a missing in-band mode. Physical candidates are evaluated by reanalysis
+    (4.17), (5.2): the change is a low-rank feedback on its load shape (4.22), completed by its
+    static correction (4.23), evaluated on all lines at once by a Woodbury update of the model's
+    complex modes; a vectorised screen ranks them all, the best are fitted on all the data.
 
     Parameters
     ----------
