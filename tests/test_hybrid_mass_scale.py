@@ -206,3 +206,37 @@ def test_pairing_report_shows_the_scale():
     assert rows[2].endswith("| 2.805 +- 0.045 |")             # 10.15 Hz, the FE's scale
     assert rows[-1].endswith("| 1.000 +- 0.010 |")            # 36.98 Hz, the test's
     assert sd.hybrids.pairing_report(h0).splitlines()[0].endswith("| MAC |")
+
+
+def test_cluster_scale_std_over_noise_draws():
+    """The stated standard deviation of the blade modes' combined scale against their true
+    scale, over 15 noise draws (1%, without T1.y; two draws resolve only two blade modes and
+    are left out): it understates the error by 1.7x (rms of error / std, measured 1.70 over
+    52 modes; 3 beyond 3 std).  On the 6 draws where the identification separates the blade
+    modes cleanly the scale is within 3-5% and 1.2 std of the truth; on the other 7 the
+    test's ``nm.std`` understates the blade modes' own scale error (0.6 for an error of
+    1.4, log), the random-effects model reads the excess as FE spread (``spread`` 0.26-1.0)
+    and keeps them 0.3-1.8 (log) too small.  Locked so that a change of the rule shows here.
+    """
+    true = sd.testbeds.structure("cluster").fe()
+    st = sd.testbeds.structure("cluster")
+    c = true.point(list(st.sensors)).T
+    _, phi = true.modes(4)
+    z, clean = [], []
+    for seed in range(1, 16):
+        _, _, h, _ = _cluster(seed)
+        fh = np.sqrt(np.diag(h.Omega)) / (2 * np.pi)
+        blade = np.flatnonzero((h.kind == "measured") & (fh < 11))
+        if blade.size != 4:
+            continue
+        err = np.log(np.linalg.norm(c @ h.shapes[:, blade], axis=0)
+                     / np.linalg.norm(c @ phi, axis=0))
+        z.append(err / h.construction.mass_scale.std[:4])
+        if h.construction.mass_scale.spread < 0.1:
+            clean.append(np.abs(err).max())
+    z = np.concatenate(z)
+    rms = float(np.sqrt(np.mean(z ** 2)))
+    print(f"\n{z.size} blade modes: rms z {rms:.2f}, beyond 3 std {np.sum(np.abs(z) > 3)}; "
+          f"clean draws {len(clean)}, worst error {max(clean):.3f}")
+    assert z.size == 52 and 1.4 <= rms <= 2.0 and np.sum(np.abs(z) > 3) <= 4
+    assert len(clean) == 6 and max(clean) <= 0.06
