@@ -403,7 +403,8 @@ def _extended(model, current, accepted, props, errors, placed0) -> _Extension:
                                     placed0, errors[2])
         why = (EDGE if fit is not None and any(leaves_region(q, placed0.omega)
                                                for q in fit.props)
-               else undetermined(fit.props if fit else [best], model, placed0, errors[2]))
+               else undetermined([best] if fit is None else fit.props, model, placed0,
+                                 errors[2]))
         if why is None and fit is None:
             return _Extension([best], apply_effect(current, best, placed0), rejected)
         if why is None:

@@ -52,7 +52,7 @@ from sdctrl.updating._costs import logls
 from sdctrl.hybrids._auto import (SAME_PREDICTIONS, choose_residual, has_tested,
                                   held_out_scores, reference_lines)
 from sdctrl.hybrids._io_checks import measured_w2, placed_io, placed_loads, warn_left_out
-from sdctrl.hybrids._mass_scale import fe_mass_scale, test_scale_std
+from sdctrl.hybrids._mass_scale import fe_mass_scale, measured_scale_std
 from sdctrl.hybrids._pairing_rules import absorbed, mean_damping, warn_poor
 
 __all__ = ["hybrid", "pairing_report"]
@@ -350,7 +350,7 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
                        fe_idx[kept], setup.expansion, prior, response)
     # the FE modal mass's scale where the test's collocated residues cannot scale a mode
     ratio = np.log(f_id[kept] / f_fe[fe_idx[kept]])
-    scale = fe_mass_scale(fe.M, base.expanded, test_scale_std(nm, kept), km,
+    scale = fe_mass_scale(fe.M, base.expanded, measured_scale_std(nm, kept), km,
                           ratio - np.median(ratio))
     if scale is not None:
         base.expanded, base.A = base.expanded * scale.factor, base.A * scale.factor
@@ -427,9 +427,6 @@ def _keep_tested(nm, built, tested, w_band):
     variant = f"tested I/O kept; appended modes as in {built.residual.variant}"
     return cphi, res, replace(built, residual_flexibility=carried, mass_correction=None,
                               residual=replace(built.residual, variant=variant))
-
-
-
 
 
 def _append_static(fe, static_b, modes: ModeSet, loads) -> ModeSet:

@@ -3,11 +3,12 @@
 The test scales each mode by its collocated residues (3.24).  A mode that the tested inputs
 barely excite has tiny collocated residues, and its scale is "very sensitive to identification
 errors" (thesis 3.3.4, Figure 3.7; the variances of 3.4.3 agree): its whole observability
-vector may be off by a factor of several, with nothing at the tested I/O to show it (the product ``cphi phib``
-is what the test measures; the split between them is the scale).  The FE model holds a second,
-independent estimate: for the true mass matrix the expanded shapes are mass-orthonormal
-(4.1.1, "modeshape expansion does not change the scaling"), so ``phi_Ex^T M phi_Ex`` of a mode
-expanded from its test observabilities is its squared scale error as the FE's mass sees it.
+vector may be off by a factor of several, with nothing at the tested I/O to show it (the
+product ``cphi phib`` is what the test measures; the split between them is the scale).  The FE
+model holds a second, independent estimate: for the true mass matrix the expanded shapes are
+mass-orthonormal (4.1.1, "modeshape expansion does not change the scaling"), so ``phi_Ex^T M
+phi_Ex`` of a mode expanded from its test observabilities is its squared scale error as the
+FE's mass sees it.
 
 Per kept measured mode ``j``, in logarithms:
 
@@ -43,10 +44,10 @@ import numpy as np
 
 from sdctrl.hybrids._hybrid_records import MassScale
 
-__all__ = ["fe_mass_scale", "random_effects", "test_scale_std"]
+__all__ = ["fe_mass_scale", "measured_scale_std", "random_effects"]
 
 
-def test_scale_std(nm, kept) -> np.ndarray | None:
+def measured_scale_std(nm, kept) -> np.ndarray | None:
     """Relative standard deviation of the test's scale of each kept mode (module notes), or
     None when ``nm`` carries no statistics (or not for its observabilities)."""
     std = nm.std if isinstance(nm.std, dict) else None
@@ -88,7 +89,7 @@ def fe_mass_scale(M, expanded, sigma, modes, freq_error=None) -> MassScale | Non
     expanded : ndarray, shape (N, n)
         The expanded shapes (4.7) of the kept measured modes, from the test's scale.
     sigma : ndarray, shape (n,), or None
-        Relative standard deviation of each mode's test scale (:func:`test_scale_std`).
+        Relative standard deviation of each mode's test scale (:func:`measured_scale_std`).
     modes : ndarray of int, shape (n,)
         Indices of the modes in the identified model.
     freq_error : ndarray, shape (n,), optional
