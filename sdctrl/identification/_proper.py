@@ -88,6 +88,9 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     (3.52), unscalable at the collocated pairs (3.24), more modes than sensors (3.46)) are
     kept as they are, complex-mode terms (3.7) in ``nm.residual``
     (:class:`~sdctrl.modal.ResidualDynamics`, realised in the 2x2-block form 3.26-3.33).
+    When the in-band set cannot be made proper as a whole, the fewest poles are kept that
+    way, and of the removals of that many, the one whose kept modes need the smallest
+    correction (3.54) (:mod:`~sdctrl.identification._mode_split`).
     Where properness enforced on the in-band modes alone changes their residues significantly
     (more than 3 standard deviations of the residue, 3.58) and the identified model holds
     poles kept as residual dynamics the in-band modes may couple to (out-of-band poles or an
