@@ -45,7 +45,7 @@ from sdctrl.hybrids._hybrid_records import (
 )
 from sdctrl.hybrids._predictions import HybridModel
 from sdctrl.hybrids._expansion import MAC_POOR, pair_modes
-from sdctrl.hybrids._measured_residual import measured_appended_w2, out_of_band_candidates
+from sdctrl.hybrids._measured_residual import measured_appended_poles, out_of_band_candidates
 from sdctrl.hybrids._out_of_band import trial_out_of_band
 from sdctrl.hybrids._tested_io import TestedIO, keep_tested, realise_residual
 from sdctrl.updating._costs import logls
@@ -131,7 +131,8 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
       the median measured/FE frequency ratio of the paired modes, but an appended mode
       the test measured as residual dynamics (an in-band mode not made normal, paired by
-      its residue's shape) takes the measured frequency
+      its residue's shape) takes the measured frequency and damping ratio (the other
+      appended modes take the measured modes' mean ratio, 5.1.1)
       (:mod:`sdctrl.hybrids._measured_residual`); with ``residual="auto"`` so may one the
       test holds as an out-of-band pole, when both the fit at the tested I/O and the
       held-out prediction are better with it (a mode just above the band that the FE put
@@ -354,9 +355,9 @@ def _variants(setup: _Setup, nm, c, loads, residuals, *, static_b=None, prior=No
                           ratio - np.median(ratio))
     if scale is not None:
         base.expanded, base.A = base.expanded * scale.factor, base.A * scale.factor
-    # appended FE modes the test measured as residual dynamics take the measured frequency
-    base.appended_test_w2 = measured_appended_w2(nm, c, phi_fe, f_fe, base.appended_w2,
-                                                 setup.mac_min, out_of_band)
+    # appended FE modes the test measured as residual dynamics take the measured pole
+    base.appended_test_w2, base.appended_test_zeta = measured_appended_poles(
+        nm, c, phi_fe, f_fe, base.appended_w2, setup.mac_min, out_of_band)
     offered = out_of_band_candidates(nm, c, phi_fe, f_fe, base.appended_w2, setup.mac_min)
     zeta_mean = mean_damping(nm, np.sqrt(w2_id), kept)
     pairing = ModePairing(test_mode=km, fe_mode=fe_idx[kept], mac=mac_pairs[kept],

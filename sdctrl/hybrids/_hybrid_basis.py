@@ -105,9 +105,10 @@ class HybridBasis:
         Static correction of the test inputs (N, ks) and ``omega^2``.
     kappa : float
         Median ratio of measured to paired FE frequencies.
-    appended_test_w2 : ndarray, shape (ka,), or None
-        Measured ``omega^2`` of the appended modes the test kept as residual dynamics, NaN
-        for the others (:mod:`sdctrl.hybrids._measured_residual`, set by the hybrid).
+    appended_test_w2, appended_test_zeta : ndarray, shape (ka,), or None
+        Measured ``omega^2`` and damping ratio of the appended modes the test kept as
+        residual dynamics, NaN for the others (:mod:`sdctrl.hybrids._measured_residual`,
+        set by the hybrid).
     """
 
     def __init__(self, **parts):
@@ -183,7 +184,7 @@ def build_basis(fe, w2_id, cphi, c, loads, f_fe, phi_fe, pair,
     return HybridBasis(expanded=shapes, A=A, low=Sl, low_w2=wl2, appended=Sa, appended_w2=wa2,
                        static=Vs, static_w2=ws2, kappa=float(np.median(ratio)),
                        low_index=np.flatnonzero(low), appended_index=app, prior=prior,
-                       appended_test_w2=None)
+                       appended_test_w2=None, appended_test_zeta=None)
 
 
 def _orthogonal_to(fe, X, w2, S):
@@ -328,21 +329,23 @@ def _variant(data: _VariantData, kap: float, fit: str, measured: bool = True):
     kept_modal, base, c, loads, zeta = data.kept_modal, data.base, data.c, data.loads, data.zeta
     w, R_t, Href = data.w, data.R_t, data.Href
     Sl, wl2 = base.low, base.low_w2
-    wa2 = base.appended_w2 * kap**2
+    wa2, za = base.appended_w2 * kap**2, np.full(base.appended_w2.shape, zeta)
     if measured and base.appended_test_w2 is not None:
         wa2 = np.where(np.isnan(base.appended_test_w2), wa2, base.appended_test_w2)
+        za = np.where(np.isnan(base.appended_test_zeta), za, base.appended_test_zeta)
     parts = {"measured": (base.expanded, np.diag(kept_modal.Omega), kept_modal.Gamma,
                           data.phib_meas),
              "low": (Sl, wl2), "appended": (base.appended, wa2),
-             "static": (base.static, base.static_w2), "zeta": zeta, "E": None,
+             "static": (base.static, base.static_w2), "zeta": zeta, "appended_zeta": za,
+             "E": None,
              "measured_offset": kept_modal.cphi - c @ base.expanded}
     if fit == "none" or loads is None:
         return parts
     # what the fixed appended and static modes give at the tested I/O
     Ha = np.zeros_like(R_t)
-    for S, w2, crit in ((base.appended, wa2, False), (base.static, base.static_w2, True)):
+    for S, w2, z in ((base.appended, wa2, za), (base.static, base.static_w2, 1.0)):
         if S.shape[1]:
-            gam = 2 * np.sqrt(w2) * (1.0 if crit else zeta)
+            gam = 2 * np.sqrt(w2) * z
             Ha = Ha + _modal_frf(c @ S, w2, gam, S.T @ loads, w)
     target = R_t - Ha
     W = _weights(Href)
@@ -474,7 +477,7 @@ def stack_parts(parts, loads, ns: int) -> ModeSet:
     blocks = [(Sm, w2m, Gm, "measured")]
     for key, kind in (("low", "fe"), ("appended", "fe"), ("static", "residual")):
         S, w2 = parts[key]
-        crit = 1.0 if kind == "residual" else zeta
+        crit = 1.0 if kind == "residual" else parts.get(f"{key}_zeta", zeta)
         blocks.append((S, w2, np.diag(2 * crit * np.sqrt(np.clip(w2, 0, None))), kind))
     shapes = np.hstack([b[0] for b in blocks])
     w2 = np.concatenate([b[1] for b in blocks])
