@@ -473,12 +473,12 @@ def stack_parts(parts, loads, ns: int) -> ModeSet:
         Modes in the order measured, low, appended, static.
     """
     Sm, w2m, Gm, pbm = parts["measured"]
-    zeta = parts["zeta"]
     blocks = [(Sm, w2m, Gm, "measured")]
-    for key, kind in (("low", "fe"), ("appended", "fe"), ("static", "residual")):
+    for key, kind, ratio in (("low", "fe", parts["zeta"]),
+                             ("appended", "fe", parts["appended_zeta"]),
+                             ("static", "residual", 1.0)):      # static: critically damped
         S, w2 = parts[key]
-        crit = 1.0 if kind == "residual" else parts.get(f"{key}_zeta", zeta)
-        blocks.append((S, w2, np.diag(2 * crit * np.sqrt(np.clip(w2, 0, None))), kind))
+        blocks.append((S, w2, np.diag(2 * ratio * np.sqrt(np.clip(w2, 0, None))), kind))
     shapes = np.hstack([b[0] for b in blocks])
     w2 = np.concatenate([b[1] for b in blocks])
     n = shapes.shape[1]

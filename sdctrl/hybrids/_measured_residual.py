@@ -17,11 +17,11 @@ paired FE mode takes the measured frequency and, for a pole in the band, the mea
 damping ratio (the appended modes the test did not measure take the measured modes' mean
 damping ratio, 5.1.1, "for modes that are not (or not accurately) measured"; so does a mode
 the test holds as an out-of-band pole, fitted to a resonance's flank, whose damping the band
-does not determine).  Shapes are left as they are.  On a held-out
-structure whose 24.5 Hz mode the normal-mode step kept as residual dynamics (properness with
-the others), its appended FE mode had carried the mean ratio 0.020 -- pulled up by one
-heavily damped mode, 0.10 -- where the test had measured 0.0053 (truth 0.0056); the untested
-shaker's prediction rose 10.8x -> 11.98x better than the wrong FE.
+does not determine).  Shapes are left as they are.  On a held-out structure whose 24.5 Hz
+mode the normal-mode step kept as residual dynamics (properness with the others), its
+appended FE mode had carried the mean ratio 0.020 -- pulled up by one heavily damped mode,
+0.10 -- where the test had measured 0.0053 (truth 0.0056); the untested shaker's prediction
+rose 10.8x -> 11.98x better than the wrong FE.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Which identified modes a hybrid model keeps as measured modes, and what its appended FE
 modes inherit from them (5.1.1): out-of-band poles that pair poorly with the FE are absorbed
 into the residual terms, poor pairings of the kept ones are warned about, and the appended
-modes take the kept in-band modes' mean damping ratio."""
+modes the test did not measure take the kept in-band modes' mean damping ratio (those it
+measured as residual dynamics take their own, :mod:`sdctrl.hybrids._measured_residual`)."""
 
 from __future__ import annotations
 
@@ -40,7 +41,7 @@ def in_band_modes(nm):
 
 def mean_damping(nm, w_id, kept) -> float:
     """Mean damping ratio of the kept in-band measured modes, given to the appended FE
-    modes (5.1.1)."""
+    modes the test did not measure (5.1.1)."""
     use = kept.copy()
     ib = in_band_modes(nm)
     if ib is not None and np.any(use & ib):
