@@ -36,7 +36,8 @@ from sdctrl._lib.threads import single_thread
 from sdctrl._lib.validate import as_array
 from sdctrl.identification._fit_pass import PassOptions, fit_pass
 from sdctrl.identification._line_weights import WEIGHTINGS, kept_pass, passes_to_run
-from sdctrl.identification._rules import selection_rules
+from sdctrl.identification._residual_decay import CorrelatedLines
+from sdctrl.identification._rules import correlated_rules, selection_rules
 from sdctrl.identification._search import ZETA_MAX, ZETA_MIN
 
 __all__ = ["IdentificationWarning", "identify"]
@@ -174,7 +175,11 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         carry the information.  Data without
         measurable noise (noise-free) get the unweighted fit only.  Weighting applies
         to data whose noise is independent between lines (not through an exponential
-        window: there, one unweighted fit).  What was applied: ``cm.search.weighting``;
+        window: there, one unweighted fit; nor to data that do not record a window but
+        whose starting residual decays over the record as windowed noise does,
+        ``cm.search.residual_decay``, :mod:`~sdctrl.identification._residual_decay`:
+        they are fitted under the rules of windowed data, the damping not corrected).
+        What was applied: ``cm.search.weighting``;
         with ``"auto"``, both fits' logLS: ``cm.search.weighting_logls``.  Warnings are
         those of the fit kept.
     progress : bool, optional
@@ -209,7 +214,9 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
         selection stopped or interrupted (also listed in ``warnings`` of the model); a fit
         error above 10%, or above 3 times the error the data's noise alone would leave
         (coherence, 3.59; else the residual's second differences, if noise-like), with
-        where it lies and what to try; in-band poles forming multiplets of a drifting mode.
+        where it lies and what to try; in-band poles forming multiplets of a drifting mode;
+        data without a recorded window whose noise is correlated between lines (the rules
+        of windowed data applied, how to give the window so that the damping is corrected).
 
     Examples
     --------
@@ -231,17 +238,30 @@ def identify(frf, poles=None, band=None, *, model: str = "complex", optimizer: s
     opts = PassOptions(given, model, optimizer, bool(asymptotic), compress_rank, max_iter, tol,
                        min_bandwidth, zeta_max, significance, seed)
     with single_thread():                     # one BLAS policy for the whole call
-        rules = selection_rules(data)
         bar = progress_bar(desc="identify", unit="eval", enabled=progress)
         try:
-            todo = passes_to_run(weighting, rules, data.H.reshape(data.freq.size, -1))
-            passes = [_recorded(data, (fband, shown), opts, rules, w, bar) for w in todo]
+            passes = _passes(data, (fband, shown), opts, weighting, bar)
         finally:
             bar.close()
     cm, caught = kept_pass(passes, data)
     for w in caught:
         warnings.warn(w.message, w.category, stacklevel=2)
     return cm
+
+
+def _passes(data, bands, opts, weighting, bar):
+    """The passes of :func:`identify`, ``[(cm, warnings), ...]``, under the rules the data
+    call for (:func:`~sdctrl.identification._rules.selection_rules`); again under the rules
+    of windowed data when the start of a pass shows lines correlated by a window the FRF
+    does not record (:class:`~sdctrl.identification._residual_decay.CorrelatedLines`)."""
+    rules = selection_rules(data)
+    try:
+        todo = passes_to_run(weighting, rules, data.H.reshape(data.freq.size, -1))
+        return [_recorded(data, bands, opts, rules, w, bar) for w in todo]
+    except CorrelatedLines as seen:
+        rules = correlated_rules(seen.decay)
+    todo = passes_to_run(weighting, rules, data.H.reshape(data.freq.size, -1))
+    return [_recorded(data, bands, opts, rules, w, bar) for w in todo]
 
 
 def _recorded(data, bands, opts, rules, weighting, bar):

@@ -82,7 +82,8 @@ def _records(info: dict, messages: list) -> dict:
     stab = info.pop("stabilisation", None)
     last = info.pop("search", {})
     keys = ("optimizer", "model", "asymptotic", "compress_rank", "compression_residual",
-            "lines", "channels", "nfev", "interrupted", "rcond", "weighting")
+            "lines", "channels", "nfev", "interrupted", "rcond", "weighting",
+            "residual_decay")
     search = SearchDiagnostics(**{k: info.pop(k) for k in keys if k in info},
                                converged=bool(last.get("converged", True)),
                                status=last.get("status"), message=last.get("message"))

@@ -85,6 +85,11 @@ class SearchDiagnostics(FrozenState):
         With ``"auto"`` on data with a coherence below one: the mean squared misfit over the
         point variance (3.59) of both fits, the measure that chose between them (None: the
         logLS chose, or one fit only).
+    residual_decay : float or None
+        For data that record no exponential window: the decay over the record of the
+        residual of the selection's start (``2 T/tau`` of an equivalent window, ``T = 1/df``)
+        when it showed noise correlated between lines and chose the rules of windowed data
+        (:mod:`~sdctrl.identification._residual_decay`); None otherwise.
     """
 
     optimizer: str | None = None
@@ -104,6 +109,7 @@ class SearchDiagnostics(FrozenState):
     weighting: str | None = None
     weighting_logls: tuple | None = None
     weighting_variance: tuple | None = None
+    residual_decay: float | None = None
 
     def __post_init__(self):
         freeze_arrays(self)
