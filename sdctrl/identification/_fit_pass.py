@@ -3,11 +3,11 @@
 :func:`fit_pass` is the body of the identification (thesis 3.2.1): the data scaled
 (exactly, by a power of two), weighted by channel and by line (``weighting="level"``,
 :mod:`~sdctrl.identification._line_weights`) and compressed; the initial poles (peaks
-merged with the stable LSCF poles) and the automatic selection, or the search from given
-poles (under the rules of independent lines, a start whose residual decays over the
-record ends the pass: :class:`~sdctrl.identification._residual_decay.CorrelatedLines`, and
-:func:`~sdctrl.identify` starts again under the rules of windowed data); the final
-residues on the full data (:mod:`~sdctrl.identification._final_fit`), the
+merged with the stable LSCF poles) and the automatic selection (under the rules of
+independent lines, a start whose residual decays over the record ends the pass:
+:class:`~sdctrl.identification._residual_decay.CorrelatedLines`, and
+:func:`~sdctrl.identify` starts again under the rules of windowed data), or the search
+from given poles; the final residues on the full data (:mod:`~sdctrl.identification._final_fit`), the
 fit assessed against the data and the poles corrected for an exponential window.  It
 returns the model and the messages it would warn with; :func:`~sdctrl.identify` warns the
 messages of the pass it keeps (``weighting="auto"`` runs two passes and keeps the one
