@@ -55,9 +55,10 @@ def test_decay_of_windowed_noise_is_the_window():
 
 
 def test_decay_of_independent_noise_and_of_smooth_error_is_small():
-    """Independent lines: a flat profile (|a| < 0.5 over five draws); a smooth residual (a
-    pole a little off, half-power band 8 lines, with no noise) lives at the record's start
-    and end: below the limit."""
+    """Independent lines: a flat profile (|a| < 0.5 over five draws).  A smooth residual (a
+    pole a little off, half-power band 8 lines) seen on 12 columns with no noise is one
+    direction across them, the model's error: no measure; with the noise of independent
+    lines added, the direction is removed and the rest is flat."""
     rng = np.random.default_rng(1)
     freq = np.arange(400) * 0.25
     for _ in range(5):
@@ -67,7 +68,10 @@ def test_decay_of_independent_noise_and_of_smooth_error_is_small():
     lam0 = -2 * np.pi * 0.25 * 4 + 2j * np.pi * 50.0
     smooth = 1 / (s - lam0 * 1.002) - 1 / (s - lam0)
     R = smooth[:, None] * rng.standard_normal(12)[None, :]
-    assert residual_decay(stack(R), freq) < DECAY_LIMIT
+    assert residual_decay(stack(R), freq) is None
+    scale = np.abs(R).max()
+    noisy = R + 0.05 * scale * (rng.standard_normal(R.shape) + 1j * rng.standard_normal(R.shape))
+    assert abs(residual_decay(stack(noisy), freq)) < 0.5
 
 
 def test_decay_needs_a_record_and_columns():
@@ -97,10 +101,10 @@ def _mac(a, b) -> float:
     return float(np.abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
 
 
-#: the start's decay on each member's survey with its window dropped (seed 1; seeds 2/3
-#: within 0.3 but the cluster's 10.1 at seed 2): a window ending at 1% is a = 9.2
-MEASURED_DECAY = {"truss": 8.76, "truss_high": 8.35, "ladder": 8.68, "plate": 7.43,
-                  "cluster": 7.72}
+#: the start's decay on each member's survey with its window dropped (seed 1, the cluster on
+#: 4000 lines): a window ending at 1% is a = 9.2
+MEASURED_DECAY = {"truss": 8.76, "truss_high": 8.35, "ladder": 8.68, "plate": 8.23,
+                  "cluster": 9.31}
 
 
 @pytest.mark.parametrize("name", FAMILY)
