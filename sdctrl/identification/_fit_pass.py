@@ -99,7 +99,8 @@ def fit_pass(data, bands, opts: PassOptions, rules, weighting: str, bar):
             w0, z0, side, pending = merged
         else:
             pending = np.zeros(w0.size, bool)
-    messages = [] if rules.residual_decay is None else [decay_message(rules.residual_decay)]
+    messages = [] if rules.residual_decay is None else [
+        decay_message(rules.residual_decay, data.freq)]
     info["residual_decay"] = rules.residual_decay
     prob = PoleProblem(Y, 2j * np.pi * data.freq, QUANTITY_POWER[data.quantity],
                        opts.model, asym, bar, lw)

@@ -145,13 +145,16 @@ def residual_decay(r: np.ndarray, freq: np.ndarray) -> float | None:
     return float(-np.polyfit(t[span], np.log(profile[span]), 1)[0])
 
 
-def decay_message(decay: float) -> str:
-    """The report of rules chosen from the decay ``decay`` of the residual (module notes):
-    what was seen, what was done, and how to give the window."""
+def decay_message(decay: float, freq: np.ndarray) -> str:
+    """The report of rules chosen from the decay ``decay`` of the residual over the record of
+    the lines ``freq`` (module notes): what was seen, the time constant of the window of the
+    same decay (``tau = 2 T / a``, ``T = 1/df``), what was done, and how to give the window."""
+    T = 1.0 / float(np.median(np.diff(freq)))
     return (f"the residual decays over the record (noise power down x{np.exp(decay):.3g} "
-            f"from start to end, as through an exponential window with 2 T/tau = {decay:.3g}, "
-            "T = 1/df): the noise is correlated between lines, and the data were fitted with "
-            "the rules of windowed data (one unweighted fit, no close-mode search); the "
-            "damping is not corrected for a window: if the records were windowed, give its "
-            "time constant (sd.FRF(..., exponential_tau=tau), or sd.impact_frf(..., "
-            "exponential=...) which records it)")
+            f"over T = 1/df = {T:.4g} s, as through an exponential window exp(-t/tau) with "
+            f"tau = {2 * T / decay:.3g} s): the noise is correlated between lines, and the "
+            "data were fitted with the rules of windowed data (one unweighted fit, no "
+            "close-mode search); the damping is not corrected for a window: if the records "
+            "were windowed, give its time constant (sd.FRF(..., exponential_tau=tau), or "
+            "sd.impact_frf(..., exponential=...) which records it); the noise of a hammer "
+            "test without a window can decay with the response too")
