@@ -254,14 +254,15 @@ def _passes(data, bands, opts, weighting, bar):
     call for (:func:`~sdctrl.identification._rules.selection_rules`); again under the rules
     of windowed data when the start of a pass shows lines correlated by a window the FRF
     does not record (:class:`~sdctrl.identification._residual_decay.CorrelatedLines`)."""
-    rules = selection_rules(data)
-    try:
+    def under(rules):
         todo = passes_to_run(weighting, rules, data.H.reshape(data.freq.size, -1))
         return [_recorded(data, bands, opts, rules, w, bar) for w in todo]
-    except CorrelatedLines as seen:
-        rules = correlated_rules(seen.decay)
-    todo = passes_to_run(weighting, rules, data.H.reshape(data.freq.size, -1))
-    return [_recorded(data, bands, opts, rules, w, bar) for w in todo]
+
+    try:
+        return under(selection_rules(data))
+    except CorrelatedLines as seen:       # outside the handler below: no chained traceback
+        decay = seen.decay
+    return under(correlated_rules(decay))
 
 
 def _recorded(data, bands, opts, rules, weighting, bar):
