@@ -65,8 +65,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl.identification._trial_correlation import uniform_grid
+
 __all__ = ["DECAY_LIMIT", "MIN_COLUMNS", "MIN_LINES", "SPREAD", "STRUCTURE", "CorrelatedLines",
-           "decay_message", "residual_decay"]
+           "decay_message", "equivalent_tau", "residual_decay"]
 
 #: slope of the residual's log power over the record above which the lines are correlated
 DECAY_LIMIT = 2.0
@@ -120,8 +122,7 @@ def residual_decay(r: np.ndarray, freq: np.ndarray) -> float | None:
     nf = r.shape[0] // 2
     if nf < MIN_LINES:
         return None
-    step = np.diff(freq)
-    if np.ptp(step) > 1e-3 * np.median(step):
+    if uniform_grid(freq, rtol=5e-4) is None:   # the record needs evenly spaced lines
         return None
     k = r.shape[1]
     if k < MIN_COLUMNS:
@@ -145,14 +146,20 @@ def residual_decay(r: np.ndarray, freq: np.ndarray) -> float | None:
     return float(-np.polyfit(t[span], np.log(profile[span]), 1)[0])
 
 
+def equivalent_tau(decay: float, freq: np.ndarray) -> float:
+    """Time constant (s) of the exponential window whose noise decays by ``decay`` over the
+    record of the lines ``freq``: ``tau = 2 T / a``, ``T = 1/df`` (module notes)."""
+    return 2.0 / (float(decay) * float(np.median(np.diff(freq))))
+
+
 def decay_message(decay: float, freq: np.ndarray) -> str:
     """The report of rules chosen from the decay ``decay`` of the residual over the record of
     the lines ``freq`` (module notes): what was seen, the time constant of the window of the
-    same decay (``tau = 2 T / a``, ``T = 1/df``), what was done, and how to give the window."""
+    same decay (:func:`equivalent_tau`), what was done, and how to give the window."""
     T = 1.0 / float(np.median(np.diff(freq)))
     return (f"the residual decays over the record (noise power down x{np.exp(decay):.3g} "
             f"over T = 1/df = {T:.4g} s, as through an exponential window exp(-t/tau) with "
-            f"tau = {2 * T / decay:.3g} s): the noise is correlated between lines, and the "
+            f"tau = {equivalent_tau(decay, freq):.3g} s): the noise is correlated between lines, and the "
             "data were fitted with the rules of windowed data (one unweighted fit, no "
             "close-mode search); the damping is not corrected for a window: if the records "
             "were windowed, give its time constant (sd.FRF(..., exponential_tau=tau), or "
