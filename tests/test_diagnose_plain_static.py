@@ -5,8 +5,10 @@ The expansion of a hybrid model (4.7) fits each state's ``cphi`` with FE modes: 
 the states that are FE modes, wrong for the static states an FE reduction appends (on a
 held-out aircraft model relative shape errors of 0.27 to 7.9, a dashpot biased by 0.8-1.2%
 and a mass by -1.5% noise-free).  MEASURED with the rule: the static states' shapes within
-1.4e-4 (truss_high, 6 states) and 1.7e-5 (ladder, 3 states) of the reduction's own, and the
-diagnosis of the plain model equal to the shaped model's.
+2e-13 (truss_high, 6 states) and 1e-13 (ladder, 3 states) of the reduction's own, and the
+diagnosis of the plain model equal to the shaped model's.  (1.4e-4 and 1.7e-5, and up to
+2.4e-3 with other BLAS threads, while the static correction subtracted the retained modes'
+part from ``K^-1 B``: :func:`sdctrl.fe._static.static_correction`.)
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ def _plain(nm):
                               sensors=nm.sensors, actuators=nm.actuators)
 
 
-@pytest.mark.parametrize("name, tol", [("truss_high", 5e-4), ("ladder", 1e-4)])
+@pytest.mark.parametrize("name, tol", [("truss_high", 1e-9), ("ladder", 1e-9)])
 def test_static_states_take_the_static_correction_shapes(name, tol):
     nm, fe = nominal(name), member(name)[1]
     with warnings.catch_warnings():
@@ -37,7 +39,7 @@ def test_static_states_take_the_static_correction_shapes(name, tol):
     k = nm.n_static
     assert k > 0 and f"{k} static-correction states" in built
     assert err[:-k].max() < 1e-9                             # the modes: FE modes
-    assert err[-k:].max() < tol                              # 1.4e-4 / 1.7e-5
+    assert err[-k:].max() < tol                              # 2e-13 / 1e-13
     # the response at the tested channels is the plain model's
     f = np.linspace(*sd.testbeds.structure(name).band, 7)
     np.testing.assert_allclose(placed.frf(f).H, nm.frf(f).H, rtol=1e-9,
