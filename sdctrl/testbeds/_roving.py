@@ -30,6 +30,8 @@ __all__ = ["Survey", "survey"]
 
 #: value of the exponential window at the record's end
 EXPONENTIAL = 0.01
+#: amplitudes (shares of a mode's largest) closer than this are equal when sensors are placed
+TIE = 1e-5
 #: fraction of each record kept on the force (the pulse sits in its first percent)
 FORCE_WINDOW = 0.05
 
@@ -221,12 +223,17 @@ def _modes_of(builder):
 
 def _place_sensors(amp: np.ndarray, candidates: list, k: int) -> list:
     """Greedy: each accelerometer added maximises the smallest share of a mode's largest
-    amplitude seen so far (ties: the largest total)."""
+    amplitude seen so far; ties (within :data:`TIE` of the largest amplitude: a symmetric
+    structure's mirror nodes, equal but for the eigenvectors' rounding on the machine) go to
+    the largest total, then to the lowest DOF index."""
     chosen, seen = [], np.zeros(amp.shape[1])
     for _ in range(min(k, len(candidates))):
         rest = [c for c in candidates if c not in chosen]
-        score = [(np.min(np.maximum(seen, amp[c])), np.sum(amp[c])) for c in rest]
-        best = rest[max(range(len(rest)), key=lambda i: score[i])]
+        share = np.array([np.min(np.maximum(seen, amp[c])) for c in rest])
+        total = np.array([np.sum(amp[c]) for c in rest])
+        tie = share >= share.max() - TIE
+        tie &= total >= total[tie].max() - TIE * amp.shape[1]
+        best = min(c for c, t in zip(rest, tie) if t)
         chosen.append(best)
         seen = np.maximum(seen, amp[best])
     return chosen
