@@ -90,6 +90,21 @@ def sizes(name, kind, where, target):
     return target / np.max(0.5 * q / w**2)
 
 
+def _ranked(eff, rank) -> int:
+    """Index of the ``rank``-th largest of ``eff``; values within 1e-6 of each other (a
+    symmetric structure's mirror places, equal but for the rounding of the machine's
+    eigenvectors) rank in list order."""
+    eff = np.asarray(eff, dtype=float)
+    order = sorted(range(eff.size), key=lambda i: -eff[i])
+    groups, tol = [], 1e-6 * float(np.max(np.abs(eff)))
+    for i in order:
+        if groups and eff[groups[-1][0]] - eff[i] <= tol:
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    return [i for g in groups for i in sorted(g)][rank]
+
+
 def pair(name, rank):
     """The node pair (element or not, among the pairs diagnose scans) of the ``rank``-th
     largest first-order added damping ratio of an in-band mode per unit dashpot."""
@@ -97,7 +112,7 @@ def pair(name, rank):
     w, _, phi = _modal(name)
     pairs = candidate_groups(fe)[1]["pairs"].locations
     eff = [np.max((fe.strut(a, b).T @ phi)[0] ** 2 / (2 * w)) for a, b in pairs]
-    return tuple(pairs[int(np.argsort(eff)[::-1][rank])])
+    return tuple(pairs[_ranked(eff, rank)])
 
 
 def in_band_mode(name, which):
@@ -182,7 +197,7 @@ def _node(name, rank):
     nodes = [n for n in fe.nodes if all(f"{n}.{a}" in dofs for a in "xyz")]
     eff = [np.max(np.sum((fe.point([f"{n}.{a}" for a in "xyz"]).T @ phi) ** 2, axis=0))
            for n in nodes]
-    return nodes[int(np.argsort(eff)[::-1][rank])]
+    return nodes[_ranked(eff, rank)]
 
 
 @functools.cache

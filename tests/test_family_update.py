@@ -12,8 +12,12 @@ truss        -5e-5, -1e-5          490      -3e-5, 0              13.8
 truss_high   -1.2e-4, -4e-5        3,932    -1.0e-4, -3e-5        22.4
 ladder       +4.5e-4, -7e-5        20       +4.5e-4, -6e-5        3.7
 plate        +5e-5, +7e-5          22       +5e-5, +9e-5          1.0
-cluster      +5e-5, +4e-5          7,812    +4.4e-4, +8e-5        1.9
+cluster      +2.9e-4 (a)           7,877    +4.4e-4, +8e-5        1.9
 =========== ===================== ======== ===================== =======
+
+(a) +5e-5, +4e-5 at 7,812 on another machine with the same code: 7,800x above its floor the
+noise-free cluster's cost is flat enough for the BLAS kernels' round-off to move the end point
+by 2.4e-4, still 35x inside the issue's 0.01.
 
 Every parameter is within 5e-4 of the truth.  At 1% three members end at the floor; the two
 trusses do not (13.8x, 22.4x), and noise-free none does: a noise-free floor is the
@@ -39,7 +43,7 @@ MEASURED = {
     ("truss_high", 0.0): (1.2e-4, 3932), ("truss_high", 0.01): (1.0e-4, 22.4),
     ("ladder", 0.0): (4.5e-4, 20.3), ("ladder", 0.01): (4.5e-4, 3.7),
     ("plate", 0.0): (7e-5, 22.4), ("plate", 0.01): (9e-5, 1.0),
-    ("cluster", 0.0): (5e-5, 7812), ("cluster", 0.01): (4.4e-4, 1.9),
+    ("cluster", 0.0): (2.9e-4, 7877), ("cluster", 0.01): (4.4e-4, 1.9),
 }
 AT_FLOOR = {("ladder", 0.01), ("plate", 0.01), ("cluster", 0.01)}
 GROWN = {("cluster", 0.0)}

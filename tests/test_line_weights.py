@@ -125,10 +125,13 @@ def test_tails_of_modes_beyond_the_band_are_fitted():
 @pytest.mark.parametrize("name", ["truss_high", "plate"])
 def test_weighted_statistics_calibrated(name):
     """The statistics of the weighted fit (data, basis and noise weighted alike, 3.56-3.59):
-    30 draws at 1% noise, poles searched from the noiseless weighted fit's; measured ratios
-    of the empirical std to the predicted one 0.69-1.14, per-mode coverage of the 95%
-    intervals 0.90-1.0 (the family's five members at 1% and 5%: 0.69-1.30)."""
-    ref, d = family_draws(name, 0.01, n_draws=30, seed=10, weighting="level")
+    50 draws at 1% noise, poles searched from the noiseless weighted fit's; measured ratios
+    of the empirical std to the predicted one 0.75-1.21 (truss_high) and 0.85-1.07 (plate),
+    per-mode coverage of the 95% intervals 0.90-1.0 (the family's five members at 1% and
+    5%: 0.69-1.30).  With 30 draws the truss_high's 6th frequency read 0.69 on one machine
+    and 0.65 on another: the sampling scatter of a std from 30 draws (0.67 is its 0.1%
+    quantile for a ratio of 1)."""
+    ref, d = family_draws(name, 0.01, n_draws=50, seed=10, weighting="level")
     c = calibration(ref, d)
     assert ref.search.weighting == "level" and np.all(d["same_order"])
     for key in ("f", "z"):

@@ -70,7 +70,9 @@ def test_tested_hybrid_candidates_equal_the_dense_path(case):
     st = placement_study(h, fe, BAND, kv=300.0, candidates=bars, outputs=outs, progress=False)
     assert not st.skipped and len(st.candidates) == len(bars)
     idx = [list(h.sensors).index(o) for o in outs]
-    assert np.allclose(st.rms_open, rms(h.to_statespace()[idx, :], BAND), rtol=1e-8, atol=0)
+    # the same band integral by two paths: 2.8e-8 apart on one machine, below 1e-8 on
+    # another (the BLAS kernels' round-off), so equal to 1e-6 (as the closed loops below)
+    assert np.allclose(st.rms_open, rms(h.to_statespace()[idx, :], BAND), rtol=1e-6, atol=0)
     f = np.abs(h.poles) / (2 * np.pi)
     p_open = h.poles[(f >= BAND[0]) & (f <= BAND[1]) & (h.poles.imag > 0)]
     for c in st.candidates:
@@ -81,7 +83,7 @@ def test_tested_hybrid_candidates_equal_the_dense_path(case):
         assert np.allclose(c.frequency, np.abs(p) / (2 * np.pi), rtol=1e-10, atol=0)
         assert np.allclose(c.damping, -p.real / np.abs(p), rtol=1e-8, atol=1e-12)
         r = rms(cl.to_statespace()[idx, :], BAND)
-        assert np.allclose(c.rms, r, rtol=1e-7, atol=0)
+        assert np.allclose(c.rms, r, rtol=1e-6, atol=0)          # 1.06e-7 apart (1e-7 once)
         # the residual terms count: without them the RMS differs by far more
         bare = cl.replace(F=None, residual=None)
         assert np.max(np.abs(rms(bare.to_statespace()[idx, :], BAND) / r - 1)) > 1e-4
