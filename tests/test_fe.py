@@ -135,7 +135,10 @@ def test_static_correction_completes_the_static_response_exactly():
     Kinv_b = np.linalg.solve(fe.K.toarray(), b)          # independent dense reference
     retained = c @ phi @ ((phi.T @ b) / w2[:, None])
     ref = c @ Kinv_b
-    assert np.allclose(c @ phiC + retained, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+    # to the retained modes' accuracy (K^-1 M phi = phi / omega^2 to 1e-10 here): 8.4e-11
+    # of the largest gain (exact by construction while phi_C subtracted the modes' part
+    # from K^-1 b, which cancelled on suspended structures)
+    assert np.allclose(c @ phiC + retained, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
     # mass- and stiffness-orthogonal to the retained modes (2.22)
     assert np.abs(phi.T @ (fe.M @ phiC)).max() < 1e-8 * np.abs(phiC).max()
     assert np.abs(phi.T @ (fe.K @ phiC)).max() < 1e-8 * np.abs(fe.K @ phiC).max()

@@ -101,15 +101,18 @@ def test_survey_statistics_with_three_hits_are_calibrated():
     point variance (3.59) twice the H1 estimate's (``n_d - 1 = 2``); the FRF records its
     three averages (``impact_frf``) and the statistics divide by ``n_d - 1``: scatter within
     [0.67, 1.5] of the prediction, 95% intervals covering the truth in at least 90% of the
-    draws for every mode.  Measured (plate, 30 draws): before the FRF recorded its averages
+    draws over the modes.  Measured (plate, 30 draws): before the FRF recorded its averages
     scatter/predicted 0.53-0.92 (conservative by sqrt(2)); now f 0.76-1.25, zeta 0.96-1.30,
-    coverage 0.90-0.97."""
+    coverage 0.90-0.97 (0.87-0.97, mean 0.92, with the plate's mirror layout of sensors: 26
+    of 30 happens to one of ten such checks with probability 0.4 for exact intervals, so
+    each mode is held to 23 of 30 and the mean to 0.9, as above)."""
     _, ref, d = survey_draws("plate", averages=3)
     c = _ratios(ref, d)
     print({k: np.round(v, 2) for k, v in c.items()})
     for key in ("f", "z"):
         assert np.all((c[key] >= 0.67) & (c[key] <= 1.5)), (key, np.round(c[key], 2))
-        assert np.all(c[key + "_cover"] >= 0.9), (key, c[key + "_cover"])
+        cover = c[key + "_cover"]                 # the criterion of the test above
+        assert np.mean(cover) >= 0.9 and np.all(cover >= 23 / N_DRAWS), (key, cover)
 
 
 def test_unrecorded_averages_keep_the_conservative_variance():

@@ -351,8 +351,10 @@ class FEModel(ElementGroups):
         """Static correction modes, eq. (2.21): the static response less the retained modes'.
 
         ``phi_C = (K^-1 - sum_j phi_j phi_j^T / omega_j^2) b`` over the retained modes,
-        computed with one sparse factorisation of ``K`` (never a dense ``K^-1``).  Then
-        ``c phi_C + sum_j c phi_j phi_j^T b / omega_j^2 = c K^-1 b`` exactly.  For free
+        computed with one sparse factorisation of ``K`` (never a dense ``K^-1``) as ``K^-1``
+        of the load less the retained modes' part (no cancellation when a retained mode is
+        soft).  Then ``c phi_C + sum_j c phi_j phi_j^T b / omega_j^2 = c K^-1 b`` to the
+        accuracy of the retained modes.  For free
         structures ``K^-1`` is the inertia-relief flexibility of :meth:`static_response`
         and retained rigid-body modes (zero frequency) are skipped.
 
