@@ -75,8 +75,9 @@ def check_calibration(d, f_true, z_true, in_band):
         # 95% intervals over 50 draws: a mode's coverage is below 0.9 with probability 0.04
         # and below 0.84 with 0.001 (binomial), so the mean over the modes is held to 0.9 and
         # each mode to 0.84, as in test_statistics_family (each mode held to 0.9 passed while
-        # the noise level around narrow peaks was overstated: conservative intervals)
-        assert np.mean(cover) >= 0.9 and np.all(cover >= 0.84), (key, cover)
+        # the noise level around narrow peaks was overstated: conservative intervals; 1e-12:
+        # the mean of 43/50 and 47/50 is 0.8999999999999999 in floating point)
+        assert np.mean(cover) >= 0.9 - 1e-12 and np.all(cover >= 0.84), (key, cover)
 
 
 @pytest.mark.parametrize("noise", [0.01, 0.05])

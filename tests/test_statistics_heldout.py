@@ -44,4 +44,4 @@ def test_statistics_calibrated_on_a_held_out_structure(noise, n_lines):
         ratio = np.std(d[key], axis=0, ddof=1) / np.median(d[key + "s"], axis=0)
         assert np.all((ratio >= 0.67) & (ratio <= 1.5)), (noise, key, np.round(ratio, 2))
         cover = np.mean(np.abs(d[key] - truth) <= Z95 * d[key + "s"], axis=0)
-        assert np.mean(cover) >= 0.9 and np.all(cover >= 0.84), (noise, key, cover)
+        assert np.mean(cover) >= 0.9 - 1e-12 and np.all(cover >= 0.84), (noise, key, cover)

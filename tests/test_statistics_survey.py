@@ -85,7 +85,7 @@ def test_survey_statistics_calibrated(name):
     for key in ("f", "z"):
         assert np.all((c[key] >= 0.67) & (c[key] <= 1.5)), (key, np.round(c[key], 2))
         cover = c[key + "_cover"]
-        assert np.mean(cover) >= 0.9 and np.all(cover >= 23 / N_DRAWS), (key, cover)
+        assert np.mean(cover) >= 0.9 - 1e-12 and np.all(cover >= 23 / N_DRAWS), (key, cover)
     # the window correction: the exponential window adds 1/tau to every decay -- more than
     # the modes' own on the plate's first mode -- and the damping's std is that of the
     # corrected estimate (its coverage above); the windowed damping is off by many std
@@ -112,7 +112,7 @@ def test_survey_statistics_with_three_hits_are_calibrated():
     for key in ("f", "z"):
         assert np.all((c[key] >= 0.67) & (c[key] <= 1.5)), (key, np.round(c[key], 2))
         cover = c[key + "_cover"]                 # the criterion of the test above
-        assert np.mean(cover) >= 0.9 and np.all(cover >= 23 / N_DRAWS), (key, cover)
+        assert np.mean(cover) >= 0.9 - 1e-12 and np.all(cover >= 23 / N_DRAWS), (key, cover)
 
 
 def test_unrecorded_averages_keep_the_conservative_variance():

@@ -104,8 +104,9 @@ def static_correction(fe, B: np.ndarray, phi) -> np.ndarray:
     lam = np.einsum("ij,ij->j", P, np.asarray(fe.K @ P))
     flex = lam > RIGID_RTOL * diagonal_scale(fe.K, fe.M)[1]
     Pf = P[:, flex]
-    X = fe.static_response(B - np.asarray(fe.M @ Pf) @ (Pf.T @ B))
-    return X - Pf @ (np.asarray(fe.M @ Pf).T @ X)
+    MP = np.asarray(fe.M @ Pf)
+    X = fe.static_response(B - MP @ (Pf.T @ B))
+    return X - Pf @ (MP.T @ X)
 
 
 def principal_static_modes(phi_s, M, rtol: float = 1e-8, atol: float = 0.0) -> np.ndarray:
