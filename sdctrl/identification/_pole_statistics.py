@@ -78,9 +78,9 @@ import numpy as np
 from sdctrl._lib.triangular import solve_upper
 from sdctrl._lib.validate import QUANTITY_POWER
 from sdctrl.identification._line_correlation import line_correlation, local_mean, noise_times
-from sdctrl.identification._residual_decay import equivalent_tau
 from sdctrl.identification._line_weights import line_weights
 from sdctrl.identification._noise import point_variance, running_median
+from sdctrl.identification._residual_decay import equivalent_tau
 from sdctrl.identification._residues import LSQ, basis, stack
 
 __all__ = ["COND_MAX", "FitStatistics", "coefficient_variance", "fit_statistics", "pole_std",
@@ -215,10 +215,10 @@ def _lines(cm, data):
     recorded exponential window; for data without one whose selection found the start's
     residual decaying over the record (``cm.search.residual_decay``,
     :mod:`~sdctrl.identification._residual_decay`), that of the window of the same decay
-    ``a`` (:func:`~sdctrl.identification._residual_decay.equivalent_tau`); else None (independent lines).  A fit's own residual is not
-    measured here: with given poles it holds the model's error (the plate's survey at its
-    five exact in-band poles: -0.07 where the selection's start measured 5.8), and an exact
-    fit's is round-off."""
+    ``a`` (:func:`~sdctrl.identification._residual_decay.equivalent_tau`); else None
+    (independent lines).  A fit's own residual is not measured here: with given poles it
+    holds the model's error (the plate's survey at its five exact in-band poles: -0.07 where
+    the selection's start measured 5.8), and an exact fit's is round-off."""
     if data.exponential_tau is not None:
         return line_correlation(data.freq, data.exponential_tau)
     decay = getattr(getattr(cm, "search", None), "residual_decay", None)

@@ -159,9 +159,9 @@ def decay_message(decay: float, freq: np.ndarray) -> str:
     T = 1.0 / float(np.median(np.diff(freq)))
     return (f"the residual decays over the record (noise power down x{np.exp(decay):.3g} "
             f"over T = 1/df = {T:.4g} s, as through an exponential window exp(-t/tau) with "
-            f"tau = {equivalent_tau(decay, freq):.3g} s): the noise is correlated between lines, and the "
-            "data were fitted with the rules of windowed data (one unweighted fit, no "
-            "close-mode search); the damping is not corrected for a window: if the records "
-            "were windowed, give its time constant (sd.FRF(..., exponential_tau=tau), or "
-            "sd.impact_frf(..., exponential=...) which records it); the noise of a hammer "
+            f"tau = {equivalent_tau(decay, freq):.3g} s): the noise is correlated between "
+            "lines, and the data were fitted with the rules of windowed data (one unweighted "
+            "fit, no close-mode search); the damping is not corrected for a window: if the "
+            "records were windowed, give its time constant (sd.FRF(..., exponential_tau=tau), "
+            "or sd.impact_frf(..., exponential=...) which records it); the noise of a hammer "
             "test without a window can decay with the response too")
