@@ -33,6 +33,7 @@ from sdctrl.identification._initial import (
     scaled,
 )
 from sdctrl.identification._line_weights import line_weights
+from sdctrl.identification._noise import measured_coherence
 from sdctrl.identification._quality import assessed
 from sdctrl.identification._residual_decay import (
     DECAY_LIMIT,
@@ -225,9 +226,10 @@ def _searched_data(Hm, cw, lw, rank, seed):
 def _noise_shape(data, Hm, V, cw=None, lw=None):
     """Point variance (3.59), up to a scale, on the search's (weighted) data columns (None
     without coherence)."""
-    if data.coherence is None:
+    coh = measured_coherence(data)
+    if coh is None:
         return None
-    pv = np.abs(Hm) ** 2 * (1.0 - data.coherence.reshape(Hm.shape))
+    pv = np.abs(Hm) ** 2 * (1.0 - coh.reshape(Hm.shape))
     pv = pv if cw is None else pv * cw**2
     pv = pv if lw is None else pv * lw[:, None] ** 2
     return pv if V is None else pv @ V**2
