@@ -82,10 +82,10 @@ import numpy as np
 from sdctrl._lib.triangular import solve_upper
 from sdctrl._lib.validate import QUANTITY_POWER
 from sdctrl.identification._level_choice import chosen_level
-from sdctrl.identification._line_correlation import line_correlation, local_mean, noise_times
+from sdctrl.identification._line_correlation import (difference_gain, local_mean,
+                                                     noise_correlation, noise_times)
 from sdctrl.identification._line_weights import line_weights
 from sdctrl.identification._noise import point_variance, running_median
-from sdctrl.identification._residual_decay import equivalent_tau
 from sdctrl.identification._residues import LSQ, basis, stack
 
 __all__ = ["COND_MAX", "FitStatistics", "coefficient_variance", "fit_statistics", "pole_std",
@@ -195,7 +195,7 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     A = np.einsum("aubv,aubv->ab", (Gp.T @ Gp).reshape(2 * n, npp, 2 * n, npp),
                   np.tensordot(Cp, Cp, axes=([2], [2])))              # sum_c B_c^T B_c
     A_inv = np.zeros_like(A) if poles_fixed else _gauss_newton_inverse(A)
-    rho = _lines(cm, data)
+    rho = noise_correlation(cm, data)
     var = point_variance(data, n_averages)
     if var is not None:
         var, noise = var.reshape(nf, m), "coherence"
@@ -213,23 +213,6 @@ def fit_statistics(cm, data, model="complex", asymptotic=(True, True), n_average
     V = np.matmul(Pinv, WP.transpose(2, 0, 1))                      # (m, q, q)
     return FitStatistics(S=0.5 * (S + S.T), A_inv=A_inv, M=M, K=K, V=V, model=model,
                          asymptotic=tuple(bool(a) for a in asymptotic), noise=noise)
-
-
-def _lines(cm, data):
-    """Correlation of the noise between lines (:func:`line_correlation`): that of the
-    recorded exponential window; for data without one whose selection found the start's
-    residual decaying over the record (``cm.search.residual_decay``,
-    :mod:`~sdctrl.identification._residual_decay`), that of the window of the same decay
-    ``a`` (:func:`~sdctrl.identification._residual_decay.equivalent_tau`); else None
-    (independent lines).  A fit's own residual is not measured here: with given poles it
-    holds the model's error (the plate's survey at its five exact in-band poles: -0.07 where
-    the selection's start measured 5.8), and an exact fit's is round-off."""
-    if data.exponential_tau is not None:
-        return line_correlation(data.freq, data.exponential_tau)
-    decay = getattr(getattr(cm, "search", None), "residual_decay", None)
-    if decay is None:
-        return None
-    return line_correlation(data.freq, equivalent_tau(decay, data.freq))
 
 
 def _level_weighted(cm) -> bool:
@@ -339,7 +322,7 @@ def _residual_variance(r, Yfit, Q, GC, A_inv, rho=None):
         dB = np.matmul(dG.transpose(2, 0, 1, 3).reshape(na, -1, npp), Cp).reshape(na, -1)
         quad = np.sum((A_inv.T @ dB) * dB, axis=0).reshape(2, nf - 2, m)
         lev = np.sum(dQ * dQ, axis=2)[..., None] + quad
-        g = 1.0 if rho is None else _second_difference_gain(rho) / 6.0
+        g = difference_gain(rho) / 6.0
         d2 = np.sum(dr**2, axis=0) / np.maximum(g * (6.0 - 0.5 * np.sum(lev, axis=0)),
                                                 0.3 * g)
         e = np.vstack([d2[:1], d2, d2[-1:]])
@@ -366,15 +349,6 @@ def _level(e, shape):
     mult = running_median(e / (stencil + tiny), win, inside=True) * shape / np.log(2.0)
     level = chosen_level(e, add + tiny, mult + tiny)
     return np.where(np.maximum(add, mult) > 0.0, level, 0.0)
-
-
-def _second_difference_gain(rho) -> float:
-    """``E|n_(i-1) - 2 n_i + n_(i+1)|^2 / sig^2`` for noise correlated as ``rho`` between
-    lines: ``6 - 8 Re rho(1) + 2 Re rho(2)`` (6 for independent lines)."""
-    c = rho.size // 2
-    r1 = rho[c + 1].real if rho.size > c + 1 else 0.0
-    r2 = rho[c + 2].real if rho.size > c + 2 else 0.0
-    return float(6.0 - 8.0 * r1 + 2.0 * r2)
 
 
 def pole_std(stats: FitStatistics, poles) -> tuple[np.ndarray, np.ndarray]:

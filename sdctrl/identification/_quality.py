@@ -20,7 +20,14 @@ Measured level ratio (two lines over one): 0.84-1.06 at 1% noise (family and hel
 structure), 1.22 and 1.4 with the missed mode, 1.98-5.6 on noise-free data, whose residual
 is a model error at the peaks (fit error 7-12 times the differences' level there, with no
 noise to compare with); above :data:`LAG_RATIO` no floor is taken.  An exponential window,
-which correlates the noise between lines, raises the ratio too.
+which correlates the noise between lines, raises the ratio too (2.7-3 on the family's surveys
+read without their coherence: no floor, and a fit error 5.5 times the noise's unsaid).  The
+differences over ``k`` lines are then divided by their gain for the window's correlation
+(:func:`~sdctrl.identification._line_correlation.difference_gain`; the recorded window's,
+or the one of the decay the selection measured, ``noise_correlation``) instead of 6: the
+family's surveys, ratio 1.13-1.31 (400 lines), floor 0.73-1.02 of the coherence's (1600
+lines).  A residual rougher than the window lets noise be (a ratio below
+``1 / LAG_RATIO``) gives no floor either.
 
 A model that fits well can still hold poles that are no modes: when the structure's
 frequencies drift during a test (temperature, mass loading, a changing suspension; the thesis
@@ -39,6 +46,7 @@ from dataclasses import replace
 import numpy as np
 
 from sdctrl._lib.logratio import log_magnitude_ratio
+from sdctrl.identification._line_correlation import difference_gain, noise_correlation
 from sdctrl.identification._noise import point_variance
 from sdctrl.identification._variance import recorded_divisor
 
@@ -82,21 +90,24 @@ def coherence_floor(data) -> float | None:
     return floor if floor > 0 else None
 
 
-def difference_floor(R: np.ndarray, H: np.ndarray) -> float | None:
+def difference_floor(R: np.ndarray, H: np.ndarray, rho=None) -> float | None:
     """The relative fit error (3.11) the noise of the data would leave, from the second
     differences of the residual ``R`` (nf, ns, na) along the lines (module notes):
-    ``sqrt(mean_i sum |R_(i-1) - 2 R_i + R_(i+1)|^2 / 6 / mean_i sum |H_i|^2)``; None when
-    the residual is not noise independent between lines (the level of the differences over
-    two lines, ``R_(i-2) - 2 R_i + R_(i+2)``, above :data:`LAG_RATIO` times that over one),
-    when fewer than 8 lines, or when the data are zero."""
+    ``sqrt(mean_i sum |R_(i-1) - 2 R_i + R_(i+1)|^2 / g_1 / mean_i sum |H_i|^2)``, ``g_k`` the
+    gain of the differences over ``k`` lines for noise correlated as ``rho`` between lines
+    (:func:`~sdctrl.identification._line_correlation.difference_gain`: 6 for independent
+    lines, None); None when the residual is not such noise (the level of the differences over
+    two lines, ``R_(i-2) - 2 R_i + R_(i+2)``, over ``g_2``, not within a factor
+    :data:`LAG_RATIO` of that over one: smoother, as a missed mode's, or rougher than the
+    window lets noise be), when fewer than 8 lines, or when the data are zero."""
     nf = R.shape[0]
     total = float(np.mean(np.sum(np.abs(H.reshape(nf, -1)) ** 2, axis=1))) if nf else 0.0
     if nf < 8 or not total > 0:
         return None
     R = R.reshape(nf, -1)
     e1, e2 = (float(np.mean(np.sum(np.abs(R[:-2 * k] - 2 * R[k:-k] + R[2 * k:]) ** 2,
-                                   axis=1))) / 6 for k in (1, 2))
-    if not 0 < e1 or e2 > LAG_RATIO * e1:
+                                   axis=1))) / difference_gain(rho, k) for k in (1, 2))
+    if not 0 < e1 or not e1 / LAG_RATIO <= e2 <= LAG_RATIO * e1:
         return None
     return float(np.sqrt(e1 / total))
 
@@ -149,7 +160,10 @@ def fit_quality(cm, data, H) -> list[str]:
     Rc = data.H - H
     floor, source = coherence_floor(data), "coherence, 3.59"
     if floor is None:
-        floor, source = difference_floor(Rc, data.H), "second differences of the residual"
+        rho = noise_correlation(cm, data)
+        floor = difference_floor(Rc, data.H, rho)
+        source = ("second differences of the residual" if rho is None else "second differences "
+                  "of the residual, for lines correlated by the window")
     above = floor is not None and cm.cost > FLOOR_WARN * floor
     if cm.cost <= FIT_WARN and not above:
         return []
