@@ -339,8 +339,13 @@ def _level(e, shape):
     0.66 -> 0.74 of it), each a running median over the lines, its windows inside the data
     at the band's edges (the edge line repeated made the level of a mode there one line's
     estimate: 0.74 -> 0.89; lattice at 200 lines, first mode 0.57 -> 0.92), over ``ln 2``.
-    An exact fit (both levels zero) has level zero."""
+    An exact fit (both levels zero) has level zero.  Computed in the unit of the fitted
+    ``|H|^2`` (a power of two: exact), so that it scales with the data's unit: a floor of
+    1e-300 added to data of 1e-305 made the level a constant."""
     nf = e.shape[0]
+    top = float(np.max(shape))
+    unit = 2.0 ** np.round(np.log2(top)) if top > 0 else 1.0     # exact: the data's unit
+    e, shape = e / unit, shape / unit
     tiny = 1e-300 + 1e-30 * float(np.max(shape))
     win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
     pad = np.vstack([shape[:1], shape, shape[-1:]])
@@ -348,7 +353,7 @@ def _level(e, shape):
     add = running_median(e, win, inside=True) / np.log(2.0)
     mult = running_median(e / (stencil + tiny), win, inside=True) * shape / np.log(2.0)
     level = chosen_level(e, add + tiny, mult + tiny)
-    return np.where(np.maximum(add, mult) > 0.0, level, 0.0)
+    return unit * np.where(np.maximum(add, mult) > 0.0, level, 0.0)
 
 
 def pole_std(stats: FitStatistics, poles) -> tuple[np.ndarray, np.ndarray]:
