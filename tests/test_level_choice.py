@@ -1,15 +1,12 @@
 """The noise level of a fit's residual chosen line by line between an additive and a
 proportional level (:mod:`sdctrl.identification._level_choice`, the pole statistics without a
 coherence, thesis 3.4): closed forms on exponential point estimates, the rule's floor, its
-robustness, and the statistics of roving-hammer surveys without a coherence calibrated over
-noise draws."""
-
-import warnings
+robustness, its unit.  The statistics of a survey without a coherence, calibrated over noise
+draws: tests/test_residual_decay.py."""
 
 import numpy as np
 import pytest
 
-import sdctrl as sd
 from sdctrl.identification._level_choice import chosen_level
 from sdctrl.identification._pole_statistics import _level
 
@@ -83,34 +80,14 @@ def test_choice_keeps_proportional_noise_at_peaks():
     assert got >= 0.9, got
 
 
-def test_survey_statistics_without_coherence():
-    """A roving-hammer survey read from a file: no coherence, no record of the exponential
-    window (plate, 20 hit points, 400 lines, two hits per point, automatic selection, 30
-    draws).  The residual-based std of the 45.3 and 49.6 Hz modes, whose fit residual is at the
-    noise, within [0.7, 1.5] of the scatter (measured f 0.87, 1.13; zeta 1.16, 1.08; the larger
-    of the two levels, the rule before: 0.34-0.57).  The 26.3, 28.3 and 59.6 Hz modes keep a
-    residual 9-17x the noise's variance at their peaks (the fit's own error there) and stay
-    conservative, measured 0.45-0.71 (before 0.37-0.65): every mode within [0.35, 1.5]."""
-    kw = dict(n_hits=20, lines=400, averages=2)
-    ref = sd.testbeds.survey("plate", noise=0.0, seed=0, **kw)
-    held = ref.poles - 1.0 / ref.frf.exponential_tau          # the poles the data hold
-    held = held[np.argsort(np.abs(held))]
-    assert held.size == 5
-    d = {k: np.empty((30, held.size)) for k in ("f", "z", "fs", "zs")}
-    for i in range(30):
-        f = sd.testbeds.survey("plate", noise=0.01, seed=1 + i, **kw).frf
-        frf = sd.FRF(f.freq, f.H, quantity=f.quantity, sensors=f.sensors,
-                     actuators=f.actuators, collocated=f.collocated, averages=f.averages)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            cm = sd.identify(frf, band=ref.band, progress=False)
-        assert cm.statistics.noise == "residual"
-        j = [int(np.argmin(np.abs(cm.poles - p))) for p in held]
-        for key, arr in (("f", cm.frequency), ("z", cm.damping), ("fs", cm.frequency_std),
-                         ("zs", cm.damping_std)):
-            d[key][i] = arr[j]
-    for key in ("f", "z"):
-        ratio = np.std(d[key], axis=0, ddof=1) / np.median(d[key + "s"], axis=0)
-        print(f"\n{key}: {np.round(ratio, 2)} at {np.round(np.abs(held) / (2 * np.pi), 2)} Hz")
-        assert np.all((ratio[2:4] >= 0.7) & (ratio[2:4] <= 1.5)), (key, np.round(ratio, 2))
-        assert np.all((ratio >= 0.35) & (ratio <= 1.5)), (key, np.round(ratio, 2))
+
+@pytest.mark.parametrize("unit", [2.0 ** -1000, 1e-150, 1e150])
+def test_level_scales_with_the_data(unit):
+    """The level of data in another unit is the level in that unit (relative 1e-12; a floor
+    of 1e-300 added to data of 1e-305, before, made it a constant)."""
+    A, M = _levels()
+    rng = np.random.default_rng(5)
+    e = np.maximum(A, M) * rng.exponential(size=A.shape)
+    shape = M / 40.0
+    np.testing.assert_allclose(_level(unit * e, unit * shape), unit * _level(e, shape),
+                               rtol=1e-12)
