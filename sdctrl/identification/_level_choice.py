@@ -12,13 +12,14 @@ the statistics are read.
 The larger of the two, the rule before, overstates additive noise at a peak narrower than the
 running median's window: ``M`` there is the median ratio *beside* the peak times the peak's
 ``|H|^2``.  Roving-hammer survey, plate, 400 lines, coherence removed: the level at the top 3%
-and 1% of lines was 5.2x and 9.5x the noise's variance (relative to all lines; 3 draws against
+and 1% of lines was 5.2x and 9.5x the noise's variance (0.64x over all lines; 3 draws against
 the variance over 30), and the 45 and 49.6 Hz modes' frequency and damping std 1.8-3x their
 scatter.  Here each line takes the mixture ``(1 - p) A + p max(A, M)`` of :data:`GRID` whose
 likelihood is largest over its neighbourhood of ``2 HALF + 1`` lines (each point estimate
 ``e_j`` is exponential with mean ``v_j``, the sum of the squares of two Gaussian parts: cost
 ``sum_j log v_j + e_j / v_j``), if it beats the larger level by :data:`MARGIN`.  The same
-survey: 0.94x and 1.11x at the top lines, those modes' std 0.87-1.16 of the scatter.
+survey: 0.94x and 1.11x at the top lines (0.58x over all lines), those modes' scatter
+0.87-1.16 of their std.
 
 Two choices keep what the rule before got right:
 

@@ -56,9 +56,9 @@ window ending at 1%), and are divided by it; the model's own error, which they n
 suppress as well, then dominates on real tests: on the surveys above with the coherence
 removed and the structure fixed the scatter is 0.06-0.33 of the prediction (conservative;
 give the coherence).  With the automatic selection (a survey read from a file: no coherence,
-no record of the window; 20 draws) the scatter is 0.45-1.22 of the prediction on the truss,
-0.72-1.78 on the ladder, 0.45-1.16 on the plate (:mod:`~sdctrl.identification._level_choice`;
-0.31-1.21 with the larger of the two levels).
+no record of the window; 20 draws, the plate 30) the scatter is 0.45-1.22 of the prediction
+on the truss, 0.72-1.78 on the ladder, 0.45-1.16 on the plate
+(:mod:`~sdctrl.identification._level_choice`; 0.31-1.21 with the larger of the two levels).
 
 The residual-based noise variance is local and heteroscedastic (as in the significance
 test, :mod:`sdctrl.identification._noise`), from the second differences of the residual

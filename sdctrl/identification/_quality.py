@@ -58,8 +58,9 @@ FIT_WARN = 0.10
 #: ratio of the fit error to the error the data's noise alone would leave (coherence, 3.59)
 #: above which :func:`sdctrl.identify` warns
 FLOOR_WARN = 3.0
-#: ratio of the second-difference levels of the residual over two lines and over one above
-#: which it is not taken for noise independent between lines (:func:`difference_floor`)
+#: ratio of the second-difference levels of the residual over two lines and over one (each
+#: over its gain for the lines' correlation) above which, or below whose inverse, it is not
+#: taken for the data's noise (:func:`difference_floor`)
 LAG_RATIO = 1.6
 #: MAC of two poles' shapes on the fixed side (the side with fewer channels) above which two
 #: poles closer than their half-power bandwidths may be one mode seen at drifting frequencies
