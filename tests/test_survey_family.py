@@ -60,8 +60,8 @@ def _mac(a, b) -> float:
 def _as_measured(model, sv) -> np.ndarray:
     """The model's accelerance in the band as the survey measured it, through the exponential
     window: ``A(s) = s^2 H(s)`` at ``s = j w + 1/tau`` (the FRF of ``a(t) exp(-t/tau)``), ``H``
-    the displacement FRF of the complex-mode model (3.7) or of the normal-mode model (2.15), both with their
-    ``E + F/s^2`` terms and the normal-mode model's residual dynamics."""
+    the displacement FRF of the complex-mode model (3.7) or of the normal-mode model (2.15),
+    both with their ``E + F/s^2`` terms and the normal-mode model's residual dynamics."""
     f = sv.frf.band(*sv.band)
     s = 2j * np.pi * f.freq + 1 / f.exponential_tau
     if isinstance(model, sd.ComplexModeModel):

@@ -7,8 +7,9 @@ merged with the stable LSCF poles) and the automatic selection (under the rules 
 independent lines, a start whose residual decays over the record ends the pass:
 :class:`~sdctrl.identification._residual_decay.CorrelatedLines`, and
 :func:`~sdctrl.identify` starts again under the rules of windowed data), or the search
-from given poles; the final residues on the full data (:mod:`~sdctrl.identification._final_fit`), the
-fit assessed against the data and the poles corrected for an exponential window.  It
+from given poles; the final residues on the full data
+(:mod:`~sdctrl.identification._final_fit`), the fit assessed against the data and the poles
+corrected for an exponential window.  It
 returns the model and the messages it would warn with; :func:`~sdctrl.identify` warns the
 messages of the pass it keeps (``weighting="auto"`` runs two passes and keeps the one
 closer to the data).

@@ -17,22 +17,23 @@ estimated from the residual) the covariance of ``[theta; C_1 ... C_m]`` is
 
 with ``M_c = Phi^+ D_c``, ``K_c = Phi^+ W_c^2 B_c`` (zero for equal noise on every line),
 ``V_c = Phi^+ W_c^2 Phi^+^T``.  These small blocks are kept (:class:`FitStatistics`), not
-the full covariance, which would be quadratic in the number of channels.  A fit with line weights ``L``
-(``cm.search.weighting == "level"``, :mod:`~sdctrl.identification._line_weights`) is the
-unweighted fit of ``L y_c`` on the basis ``L Phi``: the same blocks, of the weighted data,
-basis and derivatives, with the noise's variance ``L^2 W_c^2``.
+the full covariance, which would be quadratic in the number of channels.  A fit with line
+weights ``L`` (``cm.search.weighting == "level"``, :mod:`~sdctrl.identification._line_weights`)
+is the unweighted fit of ``L y_c`` on the basis ``L Phi``: the same blocks, of the weighted
+data, basis and derivatives, with the noise's variance ``L^2 W_c^2``.
 
 Data taken with an exponential window ``exp(-t/tau)`` on the responses (impact tests,
 ``frf.exponential_tau``) do not have independent lines: the window's spectrum spreads the
 noise of each line over its neighbours, with the correlation ``a / (a + 2 pi j d)`` between
-lines ``d`` apart, ``a = 2 T / tau`` (:func:`~sdctrl.identification._line_correlation.line_correlation`; 0.83 in modulus between
+lines ``d`` apart, ``a = 2 T / tau``
+(:func:`~sdctrl.identification._line_correlation.line_correlation`; 0.83 in modulus between
 neighbours for a window ending at 1%).  ``W_c^2`` is then the full covariance
 ``sig_k sig_l rho(k - l)`` over the lines, applied by one convolution along them
-(:func:`~sdctrl.identification._line_correlation.noise_times`), with ``sig_k^2`` the point variance's running mean over
-:data:`SMOOTH_LINES` lines (the products ``sig_k sig_l`` of square roots of per-line
-estimates -- exponential laws for two averages -- are biased low by up to ``pi/4``; the
-noise variance of an H1 estimate, the sensor's noise over the force spectrum, is smooth over
-the lines).  Correlated noise moves the poles more than independent noise of the
+(:func:`~sdctrl.identification._line_correlation.noise_times`), with ``sig_k^2`` the point
+variance's running mean over :data:`SMOOTH_LINES` lines (the products ``sig_k sig_l`` of square
+roots of per-line estimates -- exponential laws for two averages -- are biased low by up to
+``pi/4``; the noise variance of an H1 estimate, the sensor's noise over the force spectrum,
+is smooth over the lines).  Correlated noise moves the poles more than independent noise of the
 same variance -- it looks like the smooth responses the poles fit: on roving-hammer surveys
 (:func:`sdctrl.testbeds.survey`) the scatter of frequency and damping over 30 draws was
 (plate, ladder) 1.2-2.4 times the prediction with independent lines, 0.76-1.32 with the
