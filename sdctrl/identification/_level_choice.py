@@ -51,8 +51,9 @@ import numpy as np
 __all__ = ["GRID", "HALF", "MARGIN", "chosen_level"]
 
 #: mixing fractions ``p`` tried: the ratio ``p / (1 - p)`` from 1e-3 to 1e3 in steps of
-#: 10^0.25, and each level alone
-GRID = np.concatenate([[0.0], 1.0 / (1.0 + 10.0 ** -np.arange(-3.0, 3.01, 0.25)), [1.0]])
+#: 10^0.25, and the additive level alone (the larger level, ``p = 1``, is the default each of
+#: these must beat)
+GRID = np.concatenate([[0.0], 1.0 / (1.0 + 10.0 ** -np.arange(-3.0, 3.01, 0.25))])
 #: half-width (lines) of the neighbourhood whose likelihood chooses a line's mixture: eleven
 #: lines, about four independent second differences (each spans three lines)
 HALF = 5

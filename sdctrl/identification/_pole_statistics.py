@@ -347,7 +347,7 @@ def _level(e, shape):
     top = float(np.max(shape))
     unit = 2.0 ** np.round(np.log2(top)) if top > 0 else 1.0     # exact: the data's unit
     e, shape = e / unit, shape / unit
-    tiny = 1e-300 + 1e-30 * float(np.max(shape))
+    tiny = 1e-300 + 1e-30 * top / unit
     win = max(41, nf // 20) if nf >= 82 else max(5, nf // 2)
     pad = np.vstack([shape[:1], shape, shape[-1:]])
     stencil = (pad[:-2] + 4.0 * pad[1:-1] + pad[2:]) / 6.0

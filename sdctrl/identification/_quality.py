@@ -81,7 +81,8 @@ def coherence_floor(data) -> float | None:
     """The relative fit error (3.11) an exact model would leave on ``data``: the point
     variance ``|H|^2 (1 - coherence) / (n_d - 1)`` (3.59, divided by the recorded averages'
     ``n_d - 1`` as the statistics do) summed over the lines and channels, over ``sum |H|^2``,
-    square-rooted; None when the FRF carries no coherence below 1 (no measure of its noise).
+    square-rooted; None when the FRF carries no coherence measuring its noise
+    (:func:`~sdctrl.identification._noise.measured_coherence`).
     """
     var = point_variance(data, recorded_divisor(data))
     total = float(np.sum(np.abs(data.H) ** 2))
