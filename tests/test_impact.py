@@ -99,7 +99,9 @@ def test_damping_corrected_for_exponential_window(noisy):
     assert raw.exponential_tau is None and raw.n == 3
     np.testing.assert_allclose(cm.poles.real - raw.poles.real, 1 / frf.exponential_tau,
                                rtol=1e-6)
-    np.testing.assert_allclose(cm.poles.imag, raw.poles.imag, rtol=1e-12)
+    # (the two fits converge separately: their poles agree to the search's tolerance, measured
+    # 1.6e-11 since the significance of windowed data meets the window's second differences)
+    np.testing.assert_allclose(cm.poles.imag, raw.poles.imag, rtol=1e-10)
     raw_err = np.abs(raw.damping / ZN - 1)
     assert np.all(raw_err > 0.3) and np.all(raw_err > 5 * err)    # uncorrected: 36-300% off
 
@@ -250,3 +252,30 @@ def test_real_impact_records():
     j = np.argmin(np.abs(a.frequency - 4164.0))
     r = raw.damping[np.argmin(np.abs(raw.frequency - 4164.0))]
     assert (r - a.damping[j]) / r > 0.4
+
+
+def test_real_impact_records_over_a_wide_band():
+    """The same records over 100-5000 Hz: the weak modes at 810, 851 and 900 Hz are kept and
+    the fit error is within 2x the coherence's floor.  A pole's significance meets the noise
+    field of second differences divided by their gain for the window's correlation: before,
+    against the direct field alone, the smooth misfit that each removed pole left across the
+    band raised the noise at the others and the pruning cascaded (810 Hz at 9.4x its
+    threshold with 19 poles, 0.99x with 16): 15 poles, fit error 5.8%, 7.8x the floor, 810
+    and 851 Hz missing.  Measured now: 22 poles in the band, 1.08% against a floor of 0.74%.
+    Still missed over this band: the doublets at 899.4/906.9 Hz (one pole) and 1518/1520 Hz,
+    which a 700-1600 Hz band resolves (8 poles, 0.77%)."""
+    from sdctrl.identification import IdentificationWarning
+    from sdctrl.identification._quality import coherence_floor
+
+    hits = [tuple(np.load(REAL / f"measurements_{k}.npy")[1:]) for k in range(1, 6)]
+    frf = sd.impact_frf(hits, 25600.0, force_window=0.01, exponential=0.01,
+                        quantity="accelerance")
+    band = (100.0, 5000.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentificationWarning)      # no fit-quality warning
+        cm = sd.identify(frf, band=band, progress=False)
+    for f0 in (810.0, 851.0, 900.0, 3669.0, 3689.0, 4128.0, 4164.0, 4392.0):
+        assert np.min(np.abs(cm.frequency - f0)) < 3.0, f0
+    floor = coherence_floor(frf.band(*band))
+    assert 0.007 < floor < 0.008 and cm.cost < 2 * floor       # 1.08% / 0.74%
+    assert np.all(cm.damping > 0)

@@ -11,8 +11,8 @@ import numpy as np
 
 from sdctrl.identification._residual_decay import equivalent_tau
 
-__all__ = ["difference_gain", "line_correlation", "local_mean", "noise_correlation",
-           "noise_times"]
+__all__ = ["decay_correlation", "difference_gain", "line_correlation", "local_mean",
+           "noise_correlation", "noise_times"]
 
 
 def local_mean(X, win: int) -> np.ndarray:
@@ -46,8 +46,14 @@ def line_correlation(freq, tau):
     """
     if tau is None or freq.size < 2:
         return None
-    a = 2.0 / (float(tau) * float(np.median(np.diff(freq))))
-    d = np.arange(-(freq.size - 1), freq.size)
+    return decay_correlation(2.0 / (float(tau) * float(np.median(np.diff(freq)))), freq.size)
+
+
+def decay_correlation(a: float, n: int) -> np.ndarray:
+    """``rho(d) = a / (a + 2 pi j d)``, ``d = -(n - 1) .. n - 1``: the correlation between
+    lines of noise whose power decays by ``exp(a)`` over the record (:func:`line_correlation`,
+    ``a = 2 T / tau``; the decay :mod:`~sdctrl.identification._residual_decay` measures)."""
+    d = np.arange(-(n - 1), n)
     return a / (a + 2j * np.pi * d)
 
 

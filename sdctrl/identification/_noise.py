@@ -25,12 +25,16 @@ cost change exceeds what pure noise would give:
   on a simulated hammer test: correlation 0.8 between neighbouring lines, second
   differences 30 times below the noise), which an in-band pole of small damping can
   fit, while an out-of-band pole, smooth over the band on the scale of its distance to
-  the edge, cannot; an FRF that records an exponential window keeps the direct field
-  for every pole (:class:`~sdctrl.identification._selection.AutoSelection`,
-  ``windowed``).  With independent noise the direct field holds the model's error
-  too: on the testbed family's cluster at 1% noise, before the modes above the band
-  were fitted, it was up to 10^4 times the noise on some channels (the second
-  differences within 25% of it), and the weakest blade mode was never kept;
+  the edge, cannot; an FRF that records an exponential window (or whose residual decays
+  over the record) keeps the direct field for the residual scan, and its poles'
+  significance meets the lower field with the second differences divided by their gain
+  for the window's correlation (:attr:`NoiseTest.significance_gain`, 1.24 instead of 6
+  for a window ending at 1%: unbiased for that noise, far below a smooth misfit; the
+  rules' module notes give the real hammer data this holds).  With independent noise
+  the direct field holds the model's error too: on the testbed family's cluster at 1%
+  noise, before the modes above the band were fitted, it was up to 10^4 times the noise
+  on some channels (the second differences within 25% of it), and the weakest blade
+  mode was never kept;
 * it is weighted by the diagonal of the projector on the pole's columns (orthogonalised
   against the other poles): a pole on a peak meets the noise of the peak;
 * the cost change of a noise-fitting pole, ``sum_c s_c chi2(npp)`` over the data
@@ -140,7 +144,7 @@ def running_median(X: np.ndarray, win: int, inside: bool = False) -> np.ndarray:
 
 
 def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
-                direct: np.ndarray | None = None) -> np.ndarray:
+                direct: np.ndarray | None = None, gain: float = 6.0) -> np.ndarray:
     """Heteroscedastic noise variance ``E[r_re^2 + r_im^2]`` per line and data column.
 
     Two robust local estimates (running medians over ``win`` lines of the residual ``r``
@@ -170,6 +174,9 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
         noise seen by out-of-band poles; module notes).
     direct : ndarray, shape (nf, k), optional
         The field without ``smooth`` of the same arguments, when already computed.
+    gain : float
+        ``E|n_(i-1) - 2 n_i + n_(i+1)|^2 / sig^2`` of the noise (6 for independent lines,
+        :func:`~sdctrl.identification._line_correlation.difference_gain` for correlated).
 
     Returns
     -------
@@ -187,8 +194,8 @@ def noise_field(r, Yfit, Q, shape, win: int, smooth: bool = False,
         # noise independent from line to line, far below for a residual smooth in
         # frequency (model error, the tails of modes outside the band), which is no
         # noise; used for out-of-band poles only (module notes)
-        d = np.max([_level(_second_difference(r[:nf], r[nf:], lev, k), shape, tiny, win)
-                    for k in SMOOTH_LAGS if 2 * k < nf], axis=0)
+        d = np.max([_level(_second_difference(r[:nf], r[nf:], lev, k, gain), shape, tiny,
+                           win) for k in SMOOTH_LAGS if 2 * k < nf], axis=0)
         field = np.minimum(field, d)
     return field
 
@@ -200,14 +207,15 @@ def _level(e, shape, tiny, win):
     return np.maximum(add, mult) / np.log(2.0)
 
 
-def _second_difference(re, im, lev, k=1):
-    """``|r_(i-k) - 2 r_i + r_(i+k)|^2 / 6`` per line (edges repeated), standardised by the
-    leverage like the residual: for noise independent over ``k`` lines and of a smooth
-    variance its mean is the variance of one line."""
+def _second_difference(re, im, lev, k=1, gain=6.0):
+    """``|r_(i-k) - 2 r_i + r_(i+k)|^2 / gain`` per line (edges repeated), standardised by
+    the leverage like the residual: for noise of a smooth variance whose second
+    differences have that gain (6: independent over ``k`` lines) its mean is the variance
+    of one line."""
     a, b, c = slice(None, -2 * k), slice(k, -k), slice(2 * k, None)
     d = (re[a] - 2 * re[b] + re[c]) ** 2 + (im[a] - 2 * im[b] + im[c]) ** 2
     h = np.maximum(1.0 - (lev[a] + 4 * lev[b] + lev[c]) / 6, 0.05)
-    d = d / (6 * h[:, None])
+    d = d / (gain * h[:, None])
     return np.concatenate([np.repeat(d[:1], k, 0), d, np.repeat(d[-1:], k, 0)])
 
 
@@ -257,6 +265,9 @@ class NoiseTest:
         # every test meets the lower (second-difference) field when the data show noise
         # independent between lines (set by the selection's rules; module notes)
         self.lower_when_independent = False
+        # noise correlated between lines: the significance meets the lower field, second
+        # differences divided by this gain (set by the selection's rules; module notes)
+        self.significance_gain = None
 
     def field(self, ev, smooth: bool = False) -> np.ndarray:
         """:func:`noise_field` of the fit ``ev``, computed once per fit (the pruning test,
@@ -283,7 +294,8 @@ class NoiseTest:
         if key not in ev:
             r = ev["r"]
             ev[key] = noise_field(r, self.prob.Y - r, ev["lsq"].Q, self.shape, self.win,
-                                  smooth, ev.get("sig2") if smooth else None)
+                                  smooth, ev.get("sig2") if smooth else None,
+                                  self.significance_gain or 6.0)
         return ev[key]
 
     def independent(self, ev) -> bool:
@@ -367,7 +379,7 @@ class NoiseTest:
         W = lsq.Q @ Rinv.T
         M = Rinv @ Rinv.T
         Cs = solve_upper(lsq.Rr, lsq.Q.T @ prob.Y)
-        sig2 = self.field(ev)
+        sig2 = self.field(ev) if self.significance_gain is None else self._field(ev, True)
         out = np.zeros(n, bool) if side is None else np.asarray(side) != 0
         sig2s = self.field(ev, smooth=True) if np.any(out) else sig2
         dJ = np.empty(n)

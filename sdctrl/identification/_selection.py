@@ -1,30 +1,29 @@
 """Automatic pole selection of :func:`~sdctrl.identify` when no poles are given (3.2.1).
 
-Starting from the initial candidates (:mod:`~sdctrl.identification._initial`: stable
-LSCF poles and peaks of the indicator functions), :class:`AutoSelection` iterates:
-add a pole where the residual shows a missed mode (:mod:`~sdctrl.identification._missed_scan`),
-search alone the in-band poles a fit pushed to their bounds and a rejected batch's strongest
-candidate (:mod:`._travel`), drop poles
-that do not converge (pushed to a bound), fit noise (half-power bandwidth below a fraction
-of the line spacing and a damping the data do not determine, 3.56), are in-band fillers
-(large damping, resonance not inside the band) or are not statistically significant
-(:mod:`~sdctrl.identification._noise`), and add out-of-band poles below and above the
-band (held outside by bounds, within a factor 4 of its edges) that absorb modes the
-asymptotic terms ``E``, ``F/s^2`` cannot represent: one per side and pass while they are
-significant, so that the fit reaches the noise whatever lies outside the band (six
-suspension and plate modes below a band, modes just outside both edges).  Out-of-band
-poles are judged against the noise field that excludes residuals smooth in frequency
-(second differences, :func:`~sdctrl.identification._noise.noise_field`), in-band poles
-too when the data show noise independent between lines, else the direct field; at the
-end, one passive out-of-band term per side may be placed (:mod:`._far_terms`).  A
-residual-scan candidate that was rejected is excluded (1.5 lines around it) only until
-the model changes: a close mode hidden while its neighbour was not fitted is proposed
-again.  Both sides are tried before the first removal of insignificant poles: the tail of
-a mode just outside the band inflates the residual the significance test takes for noise
-(a lightly damped testbed mode looked 0.3-0.8 times the threshold, then 280 times once the
-mode above the band was fitted).  A side is tried again whenever the pole set has changed
-since its last failed trial (a first fit missing in-band modes pulls the trial pole to a
-bound).
+Starting from the initial candidates (:mod:`~sdctrl.identification._initial`: stable LSCF
+poles and peaks of the indicator functions), :class:`AutoSelection` iterates: add a pole
+where the residual shows a missed mode (:mod:`~sdctrl.identification._missed_scan`), search
+alone the in-band poles a fit pushed to their bounds and a rejected batch's strongest
+candidate (:mod:`._travel`), drop poles that do not converge (pushed to a bound), fit noise
+(half-power bandwidth below a fraction of the line spacing and a damping the data do not
+determine, 3.56), are in-band fillers (large damping, resonance not inside the band) or are
+not statistically significant (:mod:`~sdctrl.identification._noise`), and add out-of-band
+poles below and above the band (held outside by bounds, within a factor 4 of its edges) that
+absorb modes the asymptotic terms ``E``, ``F/s^2`` cannot represent: one per side and pass
+while they are significant, so that the fit reaches the noise whatever lies outside the band
+(six suspension and plate modes below a band, modes just outside both edges).  Out-of-band
+poles are judged against the noise field that excludes residuals smooth in frequency (second
+differences, :func:`~sdctrl.identification._noise.noise_field`), in-band poles too when the
+data show independent noise; windowed data's poles meet second differences over their gain
+for the window (the residual scan, the direct field); at the end, one passive out-of-band
+term per side may be placed (:mod:`._far_terms`).  A residual-scan candidate that was
+rejected is excluded (1.5 lines around it) only until the model changes: a close mode hidden
+while its neighbour was not fitted is proposed again.  Both sides are tried before the first
+removal of insignificant poles: the tail of a mode just outside the band inflates the
+residual the significance test takes for noise (a lightly damped testbed mode looked 0.3-0.8
+times the threshold, then 280 times once the mode above the band was fitted).  A side is
+tried again whenever the pole set has changed since its last failed trial (a first fit
+missing in-band modes pulls it to a bound).
 
 Initial candidates far below the noise threshold (noise peaks of the indicator functions)
 are dropped before the first fit, and isolated insignificant poles are removed together,
@@ -95,6 +94,7 @@ class AutoSelection:
         self.rules = INDEPENDENT if rules is None else rules
         self.noise.floor = self.rules.floor * prob.normY2
         self.noise.lower_when_independent = self.rules.smooth_scan
+        self.noise.significance_gain = self.rules.significance_gain
         self.scan = ResidualScan(prob, freq, self.noise)
         self.log, self.warn, self.tried, self.best = [], warn, [], None
         self.out_added = {-1: 0, 1: 0}         # out-of-band poles added per side
