@@ -119,6 +119,20 @@ def test_error_level_from_an_identified_fit_without_coherence(fe, params):
     assert given.error_source == "given" and given.weak == ["post A", "post C"]
 
 
+def test_a_coherence_of_round_off_is_no_error_level(fe, params):
+    """A coherence one up to round-off at every line (a noise-free simulation through
+    ``sd.impact_frf``: 1e-16 below one) measures no noise: the level comes from the identified
+    fit, as without a coherence (before: "coherence", 5.6e-17, and stds of 1e-11)."""
+    test = sd.testbed_frf(n=300, noise=NOISE, seed=1)
+    roundoff = sd.FRF(test.freq, test.H, quantity=test.quantity, sensors=test.sensors,
+                      actuators=test.actuators, collocated=test.collocated,
+                      coherence=np.full(test.H.shape, 1.0 - 1e-16))
+    bare = sd.identifiability(fe, test, params[2:4])
+    got = sd.identifiability(fe, roundoff, params[2:4])
+    assert got.error_source == "identified fit"
+    assert got.error_level == bare.error_level and got.std == bare.std
+
+
 def test_bad_input(fe, frf, params):
     with pytest.raises(ValueError, match="duplicate"):
         sd.identifiability(fe, frf, [params[0], params[0]])

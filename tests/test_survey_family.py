@@ -509,7 +509,7 @@ def test_noise_free_survey_with_a_coherence_of_round_off(name):
     every mode's pole within 3e-5 of the truth, relative (measured 1.5e-5 ladder, 9.6e-6
     plate: the asymptotic terms' truncation of the modes outside the band), the same model
     as with the coherence left out, statistics from the residual."""
-    from sdctrl.identification._noise import measured_coherence
+    from sdctrl.data._coherence import measured_coherence
     sv = sd.testbeds.survey(name, noise=0.0, seed=0, n_hits=20, lines=400, averages=2)
     f = sv.frf
     assert 0 < np.max(1.0 - f.coherence) <= 1e-14

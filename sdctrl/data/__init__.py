@@ -8,7 +8,8 @@ select a band and convert between displacement, velocity and acceleration.
 
 - ``_frf``: the container, quantity conversion, H1 estimation;
 - ``_impact``: impact tests (hammer hits, windows, double hits, overloads);
-- ``_uff``: UFF dataset 58 files.
+- ``_uff``: UFF dataset 58 files;
+- ``_coherence``: whether a coherence measures the noise (one rule for every step).
 
 Readers refuse, with a ``ValueError`` naming the file and the fault, anything that is not a
 complete, consistent file -- a FIFO or a device is refused before it is opened, so no reader

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sdctrl._lib.validate import QUANTITY_POWER
+from sdctrl.data._coherence import measured_coherence
 from sdctrl.identification._compression import channel_weights, compressed_data
 from sdctrl.identification._far_terms import CollocatedResidues
 from sdctrl.identification._final_fit import FitSpec, final_model
@@ -34,7 +35,6 @@ from sdctrl.identification._initial import (
     scaled,
 )
 from sdctrl.identification._line_weights import line_weights
-from sdctrl.identification._noise import measured_coherence
 from sdctrl.identification._quality import assessed
 from sdctrl.identification._residual_decay import (
     DECAY_LIMIT,

@@ -57,34 +57,19 @@ import numpy as np
 
 from sdctrl._lib.chisquare import chi2_isf
 from sdctrl._lib.triangular import solve_upper
+from sdctrl.data._coherence import measured_coherence
 from sdctrl.identification._residues import basis_derivatives, stack
 
-__all__ = ["EXACT_COHERENCE", "NoiseTest", "measured_coherence", "noise_field", "point_variance",
-           "projector_diagonal", "running_median"]
+__all__ = ["NoiseTest", "noise_field", "point_variance", "projector_diagonal", "running_median"]
 
-#: ``1 - coherence`` at or below which a coherence is one up to round-off (a signal-to-noise
-#: ratio of 100 dB at every line, beyond any measurement; noise-free simulations: 1e-16)
-EXACT_COHERENCE = 1e-10
 #: lags (lines) of the second differences of the smooth noise field (module notes)
 SMOOTH_LAGS = (1,)
-
-
-def measured_coherence(data):
-    """``data.coherence`` when it measures the noise, else None: without a coherence, or when
-    every line's is one up to round-off (``1 - coherence <=`` :data:`EXACT_COHERENCE`: one
-    record, or a noise-free simulation through :func:`~sdctrl.impact_frf`, 1e-16 to 1e-15
-    below one).  A coherence of round-off made the point variance round-off too, and the
-    significance test found no mode in noise-free surveys (ladder: "no mode found")."""
-    coh = data.coherence
-    if coh is None or not np.any(coh < 1.0 - EXACT_COHERENCE):
-        return None
-    return coh
 
 
 def point_variance(data, n_averages=1):
     """The point variance ``|H|^2 (1 - coherence) / n_averages`` (3.59) of ``data``'s
     lines, shape of ``data.H``; None when the FRF carries no coherence measuring its noise
-    (:func:`measured_coherence`: the statistics then take the residual's)."""
+    (:func:`~sdctrl.data._coherence.measured_coherence`: the statistics then take the residual's)."""
     coh = measured_coherence(data)
     if coh is None:
         return None

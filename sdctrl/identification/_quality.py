@@ -82,7 +82,7 @@ def coherence_floor(data) -> float | None:
     variance ``|H|^2 (1 - coherence) / (n_d - 1)`` (3.59, divided by the recorded averages'
     ``n_d - 1`` as the statistics do) summed over the lines and channels, over ``sum |H|^2``,
     square-rooted; None when the FRF carries no coherence measuring its noise
-    (:func:`~sdctrl.identification._noise.measured_coherence`).
+    (:func:`~sdctrl.data._coherence.measured_coherence`).
     """
     var = point_variance(data, recorded_divisor(data))
     total = float(np.sum(np.abs(data.H) ** 2))

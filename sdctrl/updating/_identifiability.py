@@ -41,6 +41,7 @@ from sdctrl._lib.progress import progress_bar
 from sdctrl._lib.threads import single_thread
 from sdctrl._lib.display import markdown_table
 from sdctrl._lib.validate import check_executor, check_int, check_scalar
+from sdctrl.data._coherence import measured_coherence
 from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.updating._update_fit import FMAX_FACTOR, check_parameters, damping_choice
 from sdctrl.updating._placed_test import error_level, identify_measured, measured_modes, place_test
@@ -330,7 +331,7 @@ def identifiability(fe, frf, parameters, band=None, *, damping=None, noise: floa
     fmax = check_scalar(fmax, "fmax", positive=True, optional=True)
     cm = None
     need_id = (choice[0] == "modal" and choice[1] is None and given is None) or \
-        (noise is None and measured.frf.coherence is None)
+        (noise is None and measured_coherence(measured.frf) is None)
     if need_id:
         cm = identify_measured(measured)
     modes = None

@@ -11,7 +11,8 @@ from it, and the measurement's own error level (thesis 4.1, 4.2.1).
   :func:`sdctrl.normal_modes` (full ``Gamma``) when the test has collocated pairs;
 - :func:`error_level` is the expected logLS cost of the measurement against the truth:
   ``mean((1 - coherence) / (2 n_averages))`` from the coherence (3.59) (the log-magnitude
-  takes half the variance of a complex relative error), else the misfit of an identified
+  takes half the variance of a complex relative error) when it measures the noise (not one
+  up to round-off: :func:`~sdctrl.data._coherence.measured_coherence`), else the misfit of an identified
   model, robustly: ``median(r^2) / 0.455`` of its log-magnitude residuals ``r`` (the
   median of a chi-square variable of one degree of freedom), so that a locally poor fit
   (a missed mode) does not pass for noise.
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sdctrl._lib.validate import QUANTITY_POWER, check_band
+from sdctrl.data._coherence import measured_coherence
 from sdctrl.fe._fe_model import check_fe_model
 
 __all__ = ["Measured", "MeasuredModes", "error_level", "identify_measured", "measured_modes",
@@ -252,7 +254,7 @@ def error_level(measured: Measured, identified=None, n_averages: int = 1) -> tup
     measured : Measured
         The test.
     identified : ComplexModeModel or NormalModeModel, optional
-        Model whose misfit measures the error when there is no coherence (default:
+        Model whose misfit measures the error without a coherence measuring it (default:
         :func:`identify_measured`).
     n_averages : int
         Averages of the FRF estimate (coherence-based level).
@@ -265,9 +267,9 @@ def error_level(measured: Measured, identified=None, n_averages: int = 1) -> tup
         ``"coherence"`` or ``"identified fit"``.
     """
     frf = measured.frf
-    if frf.coherence is not None:
-        coh = np.broadcast_to(frf.coherence if frf.coherence.ndim == 3 else
-                              frf.coherence[:, :, None], frf.H.shape)
+    coh = measured_coherence(frf)
+    if coh is not None:
+        coh = np.broadcast_to(coh if coh.ndim == 3 else coh[:, :, None], frf.H.shape)
         return float(np.mean((1.0 - coh) / (2.0 * n_averages))), "coherence"
     model = identify_measured(measured) if identified is None else identified
     pred = model.frf(frf.freq, frf.quantity)

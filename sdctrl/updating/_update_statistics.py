@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdctrl.data._coherence import measured_coherence
+
 __all__ = ["fitted_std", "log_jacobian", "log_point_variance", "parameter_covariance",
            "std_and_correlation"]
 
@@ -31,7 +33,8 @@ def log_point_variance(frf, shape, n_averages: int = 1, residual=None, npar: int
     Parameters
     ----------
     frf : FRF or None
-        The measured lines (its coherence, when it has one, gives the variance).
+        The measured lines (its coherence, when it measures the noise, gives the variance:
+        :func:`~sdctrl.data._coherence.measured_coherence`).
     shape : tuple
         Shape of the measured ``log|H|``.
     n_averages : int
@@ -47,8 +50,9 @@ def log_point_variance(frf, shape, n_averages: int = 1, residual=None, npar: int
     -------
     ndarray, shape ``shape``
     """
-    if frf is not None and frf.coherence is not None:
-        coh = frf.coherence if frf.coherence.ndim == 3 else frf.coherence[:, :, None]
+    coh = None if frf is None else measured_coherence(frf)
+    if coh is not None:
+        coh = coh if coh.ndim == 3 else coh[:, :, None]
         return np.broadcast_to((1.0 - coh) / (2.0 * n_averages), shape).copy()
     if level is None:
         r = np.asarray(residual).ravel()
