@@ -69,7 +69,8 @@ SMOOTH_LAGS = (1,)
 def point_variance(data, n_averages=1):
     """The point variance ``|H|^2 (1 - coherence) / n_averages`` (3.59) of ``data``'s
     lines, shape of ``data.H``; None when the FRF carries no coherence measuring its noise
-    (:func:`~sdctrl.data._coherence.measured_coherence`: the statistics then take the residual's)."""
+    (:func:`~sdctrl.data._coherence.measured_coherence`: the statistics then take the
+    residual's)."""
     coh = measured_coherence(data)
     if coh is None:
         return None
