@@ -49,9 +49,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import numpy as np
-
-from sdctrl.identification._line_correlation import decay_correlation, difference_gain
+from sdctrl.identification._line_correlation import (
+    decay_correlation, difference_gain, line_correlation)
 
 __all__ = ["SelectionRules", "correlated_rules", "selection_rules"]
 
@@ -122,10 +121,10 @@ def selection_rules(frf) -> SelectionRules:
     -------
     SelectionRules
     """
-    if frf.exponential_tau is None or frf.freq.size < 2:
+    if frf.exponential_tau is None:
         return INDEPENDENT
-    decay = 2.0 / (frf.exponential_tau * float(np.median(np.diff(frf.freq))))
-    return replace(WINDOWED, significance_gain=_gain(decay))
+    rho = line_correlation(frf.freq, frf.exponential_tau)
+    return WINDOWED if rho is None else replace(WINDOWED, significance_gain=difference_gain(rho))
 
 
 def correlated_rules(decay: float) -> SelectionRules:
@@ -138,4 +137,4 @@ def correlated_rules(decay: float) -> SelectionRules:
 def _gain(decay: float) -> float:
     """Gain of second differences over one line of noise decaying by ``decay`` over the
     record (``a = 2 T / tau``)."""
-    return difference_gain(decay_correlation(float(decay), 3), 1)
+    return difference_gain(decay_correlation(float(decay), 3))
