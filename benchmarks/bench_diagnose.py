@@ -56,11 +56,11 @@ demo (whole, CPU) / its diagnosis step (wall)   71.0 / 80.7      71.0 / 58.5
 
 (the demo's step times are wall seconds, load 8.4 before and 9.9 after: its CPU total is the
 figure to read.)  Issue 23's "under 10 s on one core" is not met: under this load the gain
-(4-7% on the warm truss) is within the scatter.  Where the time goes (cProfile on CPU time, truss 1%, 18 s under load): the
-single-precision screen 45-50% (its float32 passes measure 10-12 ns an entry under load,
-5 ns unloaded, ``log`` the largest; a float32-view variant of the kernel and L2-sized blocks
-measured 6.12 vs 6.30 s on the screen's own 70 tasks, and exact pruning of the sizes that
-cannot be a candidate's best -- partial costs as lower bounds, same minimum and column bit
+(4-7% on the warm truss) is within the scatter.  Where the time goes (cProfile on CPU time, truss
+1%, 18 s under load): the single-precision screen 45-50% (its float32 passes measure 10-12 ns an
+entry under load, 5 ns unloaded, ``log`` the largest; a float32-view variant of the kernel and
+L2-sized blocks measured 6.12 vs 6.30 s on the screen's own 70 tasks, and exact pruning of the sizes
+that cannot be a candidate's best -- partial costs as lower bounds, same minimum and column bit
 for bit -- 6.97 vs 6.76 s: both dropped), the finalists' fits 20-25% (float64 ``arctan2``
 and ``log`` of 111,600 entries an evaluation, ~16 evaluations of the bounded Brent search
 per finalist, 26 finalists a step), the global effects (``_global_effects``: free mode,

@@ -39,7 +39,8 @@ def main(argv=None) -> None:
         frf = sd.testbed_frf() if band is None else sd.testbed_frf().band(*band)
         cm = sd.identify(frf, progress=False)
         nm = sd.normal_modes(cm, modes=cm.in_band).replace(F=None)
-        cases.append((f"{nm.n} modes, dGamma={frac}|Gamma|", nm.uncertain(dGamma=frac * abs(nm.Gamma)),
+        cases.append((f"{nm.n} modes, dGamma={frac}|Gamma|",
+                      nm.uncertain(dGamma=frac * abs(nm.Gamma)),
                       rate_feedback(nm)))
     for name, um, K in cases:
         cl = control.feedback(um.nominal, K)

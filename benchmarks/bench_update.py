@@ -10,7 +10,8 @@ Run:  OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_update.py
    ~1e5 DOFs) with three parameters (the verticals of the lower quarter, the horizontals of
    the upper half, a top mass; their identifiability is printed first); the "test"
    is the reduced model of the true structure (24 sensors x 3 shakers, 2% modal damping,
-   lines finer than the first mode's half-power bandwidth).  Reference: one shift-invert eigensolution of the nominal model.
+   lines finer than the first mode's half-power bandwidth).  Reference: one shift-invert
+   eigensolution of the nominal model.
 
 Not part of the unit tests.
 """

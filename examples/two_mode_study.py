@@ -69,7 +69,8 @@ def main(outdir=None):
     p0 = poles(OM0, GA0)
     rms0 = h2_rms(OM0, GA0)
     curves = {}
-    print(f"{'Gamma_12':>9} {'max pole shift':>14} {'normal freq shift %':>20} {'zero damping':>12} "
+    print(f"{'Gamma_12':>9} {'max pole shift':>14} {'normal freq shift %':>20} "
+          f"{'zero damping':>12} "
           f"{'RMS y1/u':>9} {'RMS change %':>12}")
     for g12 in (-0.999 * g_pd, 0.0, 0.999 * g_pd):
         Om, Ga = fixed_pole_model(g12)
@@ -83,12 +84,14 @@ def main(outdir=None):
               f"{np.max(np.abs(fshift)):20.4f} {-zz.real / abs(zz):12.4f} {r:9.4f} "
               f"{100 * (r / rms0 - 1):12.2f}")
     lo, hi = curves[-0.999 * g_pd], curves[0.999 * g_pd]
-    print(f"collocated y1/u: max |H| ratio between extreme cases {np.max(np.abs(lo) / np.abs(hi)):.2f}"
+    print("collocated y1/u: max |H| ratio between extreme cases "
+          f"{np.max(np.abs(lo) / np.abs(hi)):.2f}"
           f" / {np.max(np.abs(hi) / np.abs(lo)):.2f} (near the zero at "
           f"{f[np.argmin(np.abs(curves[0.0]) + 1e9 * ((f < 0.16) | (f > 0.175)))]:.4f} Hz)")
 
     print("\n(5.9) Omega_12 coupling, mode frequencies and proportional damping held fixed")
-    print(f"{'Omega_12':>9} {'pole 1 Hz':>9} {'pole 2 Hz':>9}   zeros of y1/u, y2/u, y3/u (Hz, between poles?)")
+    print(f"{'Omega_12':>9} {'pole 1 Hz':>9} {'pole 2 Hz':>9}   "
+          "zeros of y1/u, y2/u, y3/u (Hz, between poles?)")
     for c12 in (0.0, 0.01, 0.02, 0.05):
         d1 = (0.21 - np.sqrt(0.21 ** 2 - 4 * c12 ** 2)) / 2
         Om = np.array([[1 + d1, c12], [c12, 1.21 - d1]])
@@ -101,15 +104,17 @@ def main(outdir=None):
             zf = np.abs(z[z.imag >= 0]) / (2 * np.pi)
             zf = zf[np.abs(z[z.imag >= 0].imag) > 1e-9] if zf.size else zf
             between = [bool(fp[0] < x < fp[1]) for x in zf]
-            txt.append(", ".join(f"{x:.4f}{'*' if bb else ''}" for x, bb in zip(zf, between)) or "-")
+            txt.append(", ".join(f"{x:.4f}{'*' if bb else ''}" for x, bb in zip(zf, between))
+                       or "-")
         print(f"{c12:9.3f} {fp[0]:9.4f} {fp[1]:9.4f}   " + " | ".join(txt))
     print("(* = zero between the two poles: a change of * for a sensor is a pole/zero flip)")
 
     um = model(OM0, GA0).uncertain(dGamma=sd.robust.psd_gamma_bound(GA0, 0.999))
     env = um.frf_envelope(f, n_samples=40, seed=0)
     k = np.argmin(np.abs(env["nominal"][:, 0, 0]) + 1e9 * ((f < 0.16) | (f > 0.175)))
-    print(f"\nuncertain model, Gamma_12 within the PD bound ({um.blocks}): y1/u at the nominal zero "
-          f"{f[k]:.4f} Hz spans |H| in [{env['mag_min'][k, 0, 0]:.3f}, {env['mag_max'][k, 0, 0]:.3f}] "
+    print(f"\nuncertain model, Gamma_12 within the PD bound ({um.blocks}): y1/u at the nominal "
+          f"zero {f[k]:.4f} Hz spans |H| in [{env['mag_min'][k, 0, 0]:.3f}, "
+          f"{env['mag_max'][k, 0, 0]:.3f}] "
           f"(nominal {abs(env['nominal'][k, 0, 0]):.3f})")
     if outdir:
         import os

@@ -195,7 +195,8 @@ def assert_rms_matches(system, snapshot, rtol: float = 1e-6, *, atol: float = 0.
                      f"{'ok' if ok else 'FAIL'}")
     if bad:
         lo, hi = _band_of(snap)
-        head = (f"closed-loop RMS differs from the snapshot{' ' + snap['name'] if snap.get('name') else ''} "
+        head = ("closed-loop RMS differs from the snapshot"
+                f"{' ' + snap['name'] if snap.get('name') else ''} "
                 f"for {bad} of {len(lines)} outputs (rtol={rtol:g}, atol={atol:g}, band "
                 f"{lo:g}-{hi:g} Hz, psd {snap['psd']}):\n"
                 f"  {'output':<{width}}  {'snapshot':>13}  {'actual':>13}  {'rel.diff':>10}\n")

@@ -170,9 +170,9 @@ def test_passive_refit_does_not_depend_on_the_unit_of_h(scale):
 
 def test_one_out_of_band_term_made_passive_closed_form():
     """Two proper modes and an out-of-band pole whose residue's real part is 7.5 times the
-    positive-real bound ``2 zeta |Im R|`` (0.3 against 0.04 of it): the collocated admittance dips below zero; the
-    refit makes the whole admittance positive real with a change of about 1e-6 mean logLS
-    (the term alone need not be: the sum is what must be passive)."""
+    positive-real bound ``2 zeta |Im R|`` (0.3 against 0.04 of it): the collocated admittance dips
+    below zero; the refit makes the whole admittance positive real with a change of about 1e-6 mean
+    logLS (the term alone need not be: the sum is what must be passive)."""
     cm = _closed_form_cm()
     before = cm.residues.copy()
     plain = _quiet(sd.normal_modes, cm)

@@ -16,7 +16,8 @@ _SECTION = re.compile(r"^\s*([A-Z][A-Za-z ]+)\n\s*-{3,}\s*$", re.MULTILINE)
 
 def _documented(doc: str) -> set[str]:
     doc = inspect.cleandoc(doc or "")
-    m = re.search(r"^Parameters\n-{3,}\n(.*?)(?=^\S[^\n]*\n-{3,}|\Z)", doc, re.MULTILINE | re.DOTALL)
+    m = re.search(r"^Parameters\n-{3,}\n(.*?)(?=^\S[^\n]*\n-{3,}|\Z)", doc,
+                  re.MULTILINE | re.DOTALL)
     if not m:
         return set()
     names = set()

@@ -19,7 +19,8 @@ def _modal_ss(freqs_hz, zetas, ns, na, seed):
     rng = np.random.default_rng(seed)
     n = len(freqs_hz)
     w = 2 * np.pi * np.asarray(freqs_hz)
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(w**2), -np.diag(2 * np.asarray(zetas) * w)]])
+    A = np.block([[np.zeros((n, n)), np.eye(n)],
+                  [-np.diag(w**2), -np.diag(2 * np.asarray(zetas) * w)]])
     B = np.vstack([np.zeros((n, na)), rng.standard_normal((n, na))])
     C = np.hstack([rng.standard_normal((ns, n)) * 1e3, np.zeros((ns, n))])
     return A, B, C, np.zeros((ns, na))
@@ -39,7 +40,8 @@ def _simulate(A, B, C, D, fs, u):
 def _dfrf(Ad, Bd, Cd, Dd, freq, fs):
     z = np.exp(2j * np.pi * freq / fs)
     n = Ad.shape[0]
-    X = np.linalg.solve(z[:, None, None] * np.eye(n) - Ad, np.broadcast_to(Bd, (z.size,) + Bd.shape))
+    X = np.linalg.solve(z[:, None, None] * np.eye(n) - Ad,
+                        np.broadcast_to(Bd, (z.size,) + Bd.shape))
     return Cd @ X + Dd
 
 

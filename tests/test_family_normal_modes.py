@@ -56,11 +56,11 @@ MEASURED = {
     ("plate", 0.0): 1e-09, ("plate", 0.01): 0.000450,
     ("cluster", 0.0): 7.961e-05, ("cluster", 0.01): 0.00037,
 }
-#: every member but the cluster meets the acceptance bound max(3 x identified, 0.01) since the improper parts
-#: are kept (the ladder was short of it, at 0.0108 / 0.0120: the properness enforcement's
-#: residue error on its most damped modes, 23.8, 64.2, 78.4 Hz, which its dashpots couple with
-#: modes outside the band -- section 3.3's assumption fails there).  Tried before, no gain
-#: (noise-free ladder 0.0108): other reduced coordinates c_T (real SVD of c psi: 0.0108; rows
+#: every member but the cluster meets the acceptance bound max(3 x identified, 0.01) since the
+#: improper parts are kept (the ladder was short of it, at 0.0108 / 0.0120: the properness
+#: enforcement's residue error on its most damped modes, 23.8, 64.2, 78.4 Hz, which its dashpots
+#: couple with modes outside the band -- section 3.3's assumption fails there).  Tried before, no
+#: gain (noise-free ladder 0.0108): other reduced coordinates c_T (real SVD of c psi: 0.0108; rows
 #: equilibrated: 0.0110; whitened by psi psi^H: 0.0107, truss worse), refitting cphi and phib
 #: to the residues given the proper modes (0.0106, truss 0.0072 -> 0.0077), relative weights
 #: in the phib fit (0.018), the paired out-of-band poles (7.97, 10.0, 98.3 Hz) made modes too

@@ -263,7 +263,8 @@ def test_assembly_sparse_equals_dense_and_pairs_recorded():
     assert np.allclose(s.C.toarray(), d.C)
     assert s.elements[0] == ("N0", "N1") and len(s.elements) == 5
     assert s.nodes["N5"] == (1.0, 0.0, 0.0)
-    # total translational mass = beam mass + lumped mass (minus the element terms of the clamped node)
+    # total translational mass = beam mass + lumped mass (minus the element terms of the clamped
+    # node)
     tx = np.array([1.0 if lab.endswith(".x") else 0.0 for lab in d.dofs])
     beam_mass = RHO * SEC["s"]["A"] * LEN
     assert tx @ d.M @ tx == pytest.approx(beam_mass * (1 - 2 / 15) + 2.0, rel=1e-12)

@@ -1,5 +1,6 @@
 """Mutation suite over the file readers: byte flips, truncations, insertions, deletions and
-overwrites of UFF (binary, ASCII, foreign) and npz files (an FRF of the former save_npz, sd.save of models).
+overwrites of UFF (binary, ASCII, foreign) and npz files (an FRF of the former save_npz, sd.save of
+models).
 
 Every outcome must be a correct read or a ``ValueError``/``OSError``; nothing else escapes and
 nothing hangs (each read runs under a deadline).  "Correct" is as strict as the format allows:

@@ -1,5 +1,6 @@
-"""Tests of sdctrl.robust.mu._upper / sdctrl.robust.mu._frequency_sweep: D-G upper bounds of mixed mu against SLICOT AB13MD,
-closed forms and brute force; the factored (L K R) path; Hamiltonian-certified intervals."""
+"""Tests of sdctrl.robust.mu._upper / sdctrl.robust.mu._frequency_sweep: D-G upper bounds of mixed
+mu against SLICOT AB13MD, closed forms and brute force; the factored (L K R) path;
+Hamiltonian-certified intervals."""
 import numpy as np
 import pytest
 

@@ -1,4 +1,5 @@
-"""The BFGS D-G bound of sdctrl.robust.mu._upper against the optimum of the D-G LMI solved by cvxpy (Clarabel).
+"""The BFGS D-G bound of sdctrl.robust.mu._upper against the optimum of the D-G LMI solved by cvxpy
+(Clarabel).
 
 Both are certificates of the same family (scalings ``(D, G)`` of Fan, Tits and Doyle), so the
 BFGS bound can never lie below the LMI optimum; the interior-point solution is the reference
@@ -8,7 +9,8 @@ pair), which SLICOT AB13MD does not accept, and the case the lead measured 0.9% 
 import numpy as np
 import pytest
 
-from sdctrl.robust.mu._upper import BlockStructure, Factored, certify_dg, dg_upper, evaluate, mu_upper
+from sdctrl.robust.mu._upper import (BlockStructure, Factored, certify_dg, dg_upper, evaluate,
+                                     mu_upper)
 from sdctrl.robust.mu._lmi import lmi_bound
 
 pytest.importorskip("cvxpy")

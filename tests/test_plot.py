@@ -535,7 +535,8 @@ def test_mode_table_intervals_are_the_statistics(chain_identified):
     np.testing.assert_allclose(half, 1.959964 * cm.frequency_std, rtol=1e-5)
     cells = fig.axes[2].tables[0].get_celld()
     text = cells[(1, 1)].get_text().get_text()
-    assert text.startswith(f"{cm.frequency[0]:.6g} +- ") and "95%" in cells[(0, 1)].get_text().get_text()
+    assert (text.startswith(f"{cm.frequency[0]:.6g} +- ")
+            and "95%" in cells[(0, 1)].get_text().get_text())
     # the CMIF is the data's singular values
     np.testing.assert_allclose(fig.axes[0].get_lines()[0].get_ydata(),
                                np.linalg.svd(frf.H, compute_uv=False)[:, 0])

@@ -172,7 +172,8 @@ def test_checker_refuses_private_or_unlisted(code):
 def test_checker_accepts_public_paths():
     code = ("import numpy as np\nimport sdctrl as sd\nfrom sdctrl import plot\n"
             "from sdctrl.robust.mu import dg_upper\nfrom sdctrl.testing import record_rms\n"
-            "m = sd.testbed()\nsd.plot.bode(m.frf(np.linspace(1, 2, 3)))\nsd.NormalModeModel.modified\n"
+            "m = sd.testbed()\nsd.plot.bode(m.frf(np.linspace(1, 2, 3)))\n"
+            "sd.NormalModeModel.modified\n"
             "sd.robust.mu.BlockStructure\nplot.mac\nsd.closedloop.feedback\nnp.__version__\n")
     assert violations(code) == []
 

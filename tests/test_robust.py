@@ -1,10 +1,12 @@
-"""Tests of sdctrl.robust._stability: mixed real mu bounds against closed-form / 1-D sweep margins."""
+"""Tests of sdctrl.robust._stability: mixed real mu bounds against closed-form / 1-D sweep
+margins."""
 import control
 import numpy as np
 import pytest
 
 from sdctrl.modal._normal_model import NormalModeModel
-from sdctrl.robust._stability import certify_dg, closed_loop_lft, mu_upper, robust_stability, worst_case_gain
+from sdctrl.robust._stability import (certify_dg, closed_loop_lft, mu_upper, robust_stability,
+                                      worst_case_gain)
 from sdctrl.robust._uncertainty import uncertain
 
 
@@ -165,7 +167,8 @@ def three_mode_bc():
     m = NormalModeModel(Omega=np.diag([4.0, 9.0, 25.0]), Gamma=np.diag([0.08, 0.12, 0.2]),
                         cphi=rng.normal(size=(2, 3)), phib=rng.normal(size=(3, 2)),
                         E=0.01 * rng.normal(size=(2, 2)))
-    um = uncertain(m, dGamma=psd_gamma_bound(m.Gamma, 0.5), dOmega=modal_density_bound(m.Omega, 0.1),
+    um = uncertain(m, dGamma=psd_gamma_bound(m.Gamma, 0.5),
+                   dOmega=modal_density_bound(m.Omega, 0.1),
                    dc=np.full((2, 3), 0.05), db=np.full((3, 2), 0.05))
     rng = np.random.default_rng(0)
     K = control.ss(rng.normal(size=(2, 2)) * 0.3 - 3 * np.eye(2), rng.normal(size=(2, 2)),

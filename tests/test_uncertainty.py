@@ -1,4 +1,5 @@
-"""Tests of sdctrl.robust._uncertainty: exact LFT (5.5), physical bounds, multi-test statistics (5.2.3)."""
+"""Tests of sdctrl.robust._uncertainty: exact LFT (5.5), physical bounds, multi-test statistics
+(5.2.3)."""
 import numpy as np
 import pytest
 
@@ -176,7 +177,8 @@ def test_frf_envelope_contains_samples():
     for d in (-1.0, 1.0):
         s = um.perturbed([d])
         H = np.abs(ss_frf(s.A, s.B, s.C, s.D, 2 * np.pi * f))
-        assert np.all(H <= env["mag_max"] * (1 + 1e-12)) and np.all(H >= env["mag_min"] * (1 - 1e-12))
+        assert (np.all(H <= env["mag_max"] * (1 + 1e-12))
+                and np.all(H >= env["mag_min"] * (1 - 1e-12)))
     assert np.max(env["mag_max"] / env["mag_min"]) > 1.5
 
 

@@ -31,7 +31,8 @@ def wrong():
 
 @pytest.fixture(scope="module")
 def params(wrong):
-    return [wrong.stiffness_parameter("links", section=LINKS), wrong.mass_parameter("plates", PLATES)]
+    return [wrong.stiffness_parameter("links", section=LINKS),
+            wrong.mass_parameter("plates", PLATES)]
 
 
 @pytest.fixture(scope="module")

@@ -77,7 +77,8 @@ class FRF(FrozenState):
     --------
     >>> import numpy as np, sdctrl as sd
     >>> f = np.linspace(1, 10, 5)
-    >>> frf = sd.FRF(f, 1 / (1 - (f / 5) ** 2 + 0.02j * f / 5), sensors=["N1.x"], actuators=["N1.x"])
+    >>> frf = sd.FRF(f, 1 / (1 - (f / 5) ** 2 + 0.02j * f / 5),
+    ...              sensors=["N1.x"], actuators=["N1.x"])
     >>> frf.H.shape
     (5, 1, 1)
     """
@@ -255,7 +256,8 @@ class FRF(FrozenState):
         FRF
             ``H`` of shape ``(nf, na, ns)``, sensors and actuators swapped, collocated pairs
             kept (each ``(s, a)`` becomes ``(a, s)``), coherence transposed; quantity, units,
-            ``exponential_tau`` and ``averages`` unchanged.  ``frf.transpose().transpose()`` equals ``frf``.
+            ``exponential_tau`` and ``averages`` unchanged.  ``frf.transpose().transpose()`` equals
+            ``frf``.
         """
         coh = None if self.coherence is None else np.swapaxes(self.coherence, 1, 2)
         return self._replace(H=np.swapaxes(self.H, 1, 2), sensors=self.actuators,

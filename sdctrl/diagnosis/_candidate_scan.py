@@ -7,9 +7,9 @@
    on those static corrections, so that the scan grows with the candidates, not with the
    FE size;
 2. **screen**: every candidate of every family at every size of its grid, by the Woodbury
-   update (rank 1, 3, or up to 6 for a beam) on a subset of lines, in single precision, log-magnitude logLS:
-   a coarse grid on half those lines for all, the full grid for the best share of each
-   family, and the best of those again with their exact static correction (their own
+   update (rank 1, 3, or up to 6 for a beam) on a subset of lines, in single precision,
+   log-magnitude logLS: a coarse grid on half those lines for all, the full grid for the best share
+   of each family, and the best of those again with their exact static correction (their own
    flexibility, one solve each; the screen projects it on the test's static corrections)
    and, for the best of those, their cost refined in size between grid points
    (:mod:`._exact_screen`) --

@@ -60,9 +60,9 @@ def _fit_resonator(t, A, P, Gkk):
     """Least squares on mass, frequency and damping (log coordinates), exact Jacobian: first
     on every k-th line (at most :data:`PRE_FIT_LINES`, :data:`PRE_NFEV` evaluations), then
     from there on all the lines (a few iterations, at most :data:`FINAL_NFEV`: the optimum of
-    all the lines is sought from a point next to it).  A resonator whose first fit drives its mass onto the lower bound
-    has no effect left (the data want none): its frequency and damping are then undetermined,
-    and the fit on all the lines, which would wander along that valley, is not run."""
+    all the lines is sought from a point next to it).  A resonator whose first fit drives its mass
+    onto the lower bound has no effect left (the data want none): its frequency and damping are then
+    undetermined, and the fit on all the lines, which would wander along that valley, is not run."""
     x0 = np.log([t["grid"][t["best"]], t["omega"], t["zeta"]])
     lb = [np.log(t["bounds"][0]), x0[1] - 0.3, np.log(1e-5)]
     ub = [np.log(t["bounds"][1]), x0[1] + 0.3, np.log(0.5)]

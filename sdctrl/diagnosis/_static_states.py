@@ -7,10 +7,10 @@ A model without shapes is given shapes on the FE model by the expansion of a hyb
 that are FE modes, and wrong for the static-correction states an FE reduction appends
 (2.21)-(2.22), (4.23)-(4.24): their shapes are combinations of the static response to the
 model's inputs (and, for a reduction with ``damping_paths``, to the dashpots' load paths
-:func:`~sdctrl.fe._reduction.damping_loads`) less the retained modes' part, ``Psi = K^-1 B -
-sum phi phi^T B / omega^2``, which no set of low FE modes spans.  With those wrong shapes a physical candidate at a
-loaded node sees the wrong static flexibility (on a held-out aircraft model: a dashpot
-biased by 0.8-1.2%, a mass by -1.5%, noise-free).
+:func:`~sdctrl.fe._reduction.damping_loads`) less the retained modes' part,
+``Psi = K^-1 B - sum phi phi^T B / omega^2``, which no set of low FE modes spans.  With those wrong
+shapes a physical candidate at a loaded node sees the wrong static flexibility (on a held-out
+aircraft model: a dashpot biased by 0.8-1.2%, a mass by -1.5%, noise-free).
 
 Rule: the states paired with an FE mode (same frequency within :data:`MATCH`, MAC above
 0.999) are modes; every other state whose ``(cphi, phib)`` lies in the span of ``Psi``

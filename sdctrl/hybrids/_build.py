@@ -128,11 +128,11 @@ def hybrid(fe, nm, sensor_c, actuator_b=None, *, fmax: float | None = None,
       ``E`` is kept -- less what the appended modes give at the test I/O, a constant fitted
       over the band -- and the modal masses of the low modes are corrected to the
       identified residual mass ``F`` (a correction carried, like ``E``, by the low modes'
-      observabilities at the tested sensors only: their FE shapes are kept); the appended FE frequencies are scaled by ``kappa``,
-      the median measured/FE frequency ratio of the paired modes, but an appended mode
-      the test measured as residual dynamics (an in-band mode not made normal, paired by
-      its residue's shape) takes the measured frequency and damping ratio (the other
-      appended modes take the measured modes' mean ratio, 5.1.1)
+      observabilities at the tested sensors only: their FE shapes are kept); the appended FE
+      frequencies are scaled by ``kappa``, the median measured/FE frequency ratio of the paired
+      modes, but an appended mode the test measured as residual dynamics (an in-band mode not made
+      normal, paired by its residue's shape) takes the measured frequency and damping ratio (the
+      other appended modes take the measured modes' mean ratio, 5.1.1)
       (:mod:`sdctrl.hybrids._measured_residual`); with ``residual="auto"`` so may one the
       test holds as an out-of-band pole, when both the fit at the tested I/O and the
       held-out prediction are better with it (a mode just above the band that the FE put

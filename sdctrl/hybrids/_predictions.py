@@ -17,9 +17,9 @@ sensors and inputs (``sensor_c``, ``actuator_b``) appends, for every new load sh
 correction made consistent with its own shapes
 (:func:`sdctrl.fe._static.consistent_static_modes`: the FE static response ``K^-1 b``
 made mass-orthogonal to the shapes, with its projected stiffness and the FE's projected
-damping, critical (2.20) when the FE model has none): :func:`with_static`.  :meth:`HybridModel.with_feedback`, :func:`with_io` (new
-inputs) and :func:`with_modification` do it by default (``static=None``); ``static=False``
-gives the plain projection of the thesis.
+damping, critical (2.20) when the FE model has none): :func:`with_static`.
+:meth:`HybridModel.with_feedback`, :func:`with_io` (new inputs) and :func:`with_modification` do it
+by default (``static=None``); ``static=False`` gives the plain projection of the thesis.
 """
 
 from __future__ import annotations
@@ -434,8 +434,8 @@ def with_modification(model, dM=None, dC=None, dK=None, *,
     re-expressed on its normal modes: the reanalysis (4.17) of
     :func:`sdctrl.updating._reanalysis.reanalysis` on the hybrid basis.  For a model that
     carries its FE model, static correction modes (4.22)-(4.24) for the loads of the
-    modification (:func:`~sdctrl.updating._reanalysis.modification_loads`), consistent with the shapes, are appended to
-    the basis first (:func:`with_static`).
+    modification (:func:`~sdctrl.updating._reanalysis.modification_loads`), consistent with the
+    shapes, are appended to the basis first (:func:`with_static`).
 
     Parameters
     ----------

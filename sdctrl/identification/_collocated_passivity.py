@@ -33,9 +33,9 @@ positive real:
 Measured at 1% noise (seeds 1-3): ``truss_high`` from every pair unstable to every pair
 stable, the model's mean logLS against the data 0.00089 / 0.00106 / 0.00162 -> 0.00093 /
 0.00107 / 0.00164; the ladder, plate and cluster passive with changes below 2e-5 (tests in
-``tests/test_collocated_passivity.py``).  Models already passive are returned unchanged.  Where what keeps the
-model from passive is needed to fit the band (the normal modes' own damping or scaling, 3.45,
-or a non-reciprocal ``F``) the refit would move the model away from the identified one and
+``tests/test_collocated_passivity.py``).  Models already passive are returned unchanged.  Where what
+keeps the model from passive is needed to fit the band (the normal modes' own damping or scaling,
+3.45, or a non-reciprocal ``F``) the refit would move the model away from the identified one and
 is not kept: the worst dip is reported (``nm.properness.passivity``; the family's truss).
 
 Internal module: the functions trust their inputs (validated by ``normal_modes``).
@@ -256,8 +256,8 @@ def _passive(nm, pairs, cm, refit):
 
 def _acceptable(old, new, ref, cm) -> str:
     """Empty when the refitted model's response ``new`` is as close to ``cm``'s (``ref``;
-    mean logLS 3.12 over the band) as the model's own ``old`` was, or as the identified model is to its data
-    (``cm.search.logls``, the closeness step 7 asks), to within :data:`FLOOR`; else why
+    mean logLS 3.12 over the band) as the model's own ``old`` was, or as the identified model is to
+    its data (``cm.search.logls``, the closeness step 7 asks), to within :data:`FLOOR`; else why
     not.  Non-passivity that only a large change of these terms removes is needed by the
     fit in the band -- the normal modes' own (a damping matrix not positive definite,
     ``phib`` not ``cphi^T`` at a pair, 3.45) or a non-reciprocal ``F`` (its antisymmetric

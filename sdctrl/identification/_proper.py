@@ -103,8 +103,8 @@ def normal_modes(cm, collocated=None, *, modes=None, tol: float = 1e-13, maxiter
     more than the identified model misses its data (``cm.search.logls``), the parts
     significant entry by entry that remove the most of it are kept too, the fewest that
     reach it (:mod:`~sdctrl.identification._part_selection`: a norm test is the loud
-    channels').  So the normal-mode model reproduces the identified model at the tested I/O.  Which poles
-    became modes: ``nm.properness.poles_used``; which stayed residual and why:
+    channels').  So the normal-mode model reproduces the identified model at the tested I/O.  Which
+    poles became modes: ``nm.properness.poles_used``; which stayed residual and why:
     ``nm.residual.source`` and ``nm.residual.reasons`` (:mod:`._mode_split`).  The residual
     dynamics have no shapes: :meth:`~sdctrl.NormalModeModel.modified`,
     :meth:`~sdctrl.NormalModeModel.with_feedback` and ``with_io`` act on the normal modes

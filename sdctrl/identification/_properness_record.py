@@ -40,8 +40,9 @@ class Properness(FrozenState):
     properness_before, properness_after : float
         ``||psi psi^T|| / ||psi psi^H||`` (3.40) before and after the correction.
     delta, delta_eigenvalues, delta_radius, riccati_residual, newton_iterations
-        The correction (3.51)-(3.52) (:class:`~sdctrl.identification._properness.RiccatiCorrection`);
-        ``delta_radius`` must be well below 1 (3.54).
+        The correction (3.51)-(3.52)
+        (:class:`~sdctrl.identification._properness.RiccatiCorrection`); ``delta_radius`` must be
+        well below 1 (3.54).
     M_T, C_T, K_T : ndarray, shape (n, n)
         Mass, damping and stiffness of the reduced coordinates (3.44).
     mass_eigenvalues, stiffness_eigenvalues, damping_eigenvalues : ndarray, shape (n,)

@@ -8,9 +8,9 @@ i (w_0 + i dw)``, has basis functions (3.15) whose inner products with a column
 ``B_i = sum_l conj(1 / (s_l - conj(lambda_i))) u'_l = sum_l u'_l / (sigma - i (2 w_0 +
 dw (i + l)))``,
 
-with ``u' = conj(s^k) w u`` (measured quantity, ``w`` the line weight): ``A`` is a convolution in ``i - l``, ``B``
-in ``i + l``, both exact and computed for every line at once by FFT, in ``O(nf log nf)``
-per column instead of ``O(nf)`` per trial and column.  For the complex-mode pair of
+with ``u' = conj(s^k) w u`` (measured quantity, ``w`` the line weight): ``A`` is a convolution in
+``i - l``, ``B`` in ``i + l``, both exact and computed for every line at once by FFT, in
+``O(nf log nf)`` per column instead of ``O(nf)`` per trial and column.  For the complex-mode pair of
 columns ``g1 = (a + b) s^k``, ``g2 = i (a - b) s^k``: ``g1 . y = Re(A + B)``,
 ``g2 . y = Im(A - B)``; for the real-mode column ``a b s^k = (a - b) s^k / (2 i w_i)``:
 ``g . y = -Im(A - B) / (2 w_i)``.

@@ -48,7 +48,8 @@ __all__ = ["NormalModeModel", "frf", "modified", "poles", "to_statespace", "with
 
 @dataclass(frozen=True, eq=False)
 class NormalModeModel(FrozenState):
-    """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``, ``y = cphi p + E u``.
+    """Truncated normal-mode model (2.15): ``(s^2 I + s Gamma + Omega) p = phib u``,
+    ``y = cphi p + E u``.
 
     With a low-frequency correction ``F`` the displacement output is
     ``y = cphi p + (E + F/s^2) u`` (2.15), (2.24); with ``residual`` dynamics it adds
@@ -106,8 +107,8 @@ class NormalModeModel(FrozenState):
         it is.  None for models without.
     omega_f : float, optional
         Corner (rad/s) of the critically damped low-frequency correction modes realising
-        ``F`` (``F (s + 3 w_f) / (s + w_f)^3``); default a tenth of the lower band edge (``properness.band``), else of the
-        lowest natural frequency.
+        ``F`` (``F (s + 3 w_f) / (s + w_f)^3``); default a tenth of the lower band edge
+        (``properness.band``), else of the lowest natural frequency.
     """
 
     Omega: np.ndarray

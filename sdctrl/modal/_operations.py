@@ -4,9 +4,9 @@
 and returns the model on its new mass-normalised modes; :func:`modified` applies changes
 given in modal coordinates (the reduced model of reanalysis, 4.17) and
 :func:`with_feedback` closes collocated relative force loops (D-strut, 5.3-5.4).  The
-functions take and return :class:`~sdctrl.modal._normal_model.NormalModeModel` objects (through their
-``replace``), and sit left of :mod:`sdctrl.modal._normal_model` in the flow so that its methods can call
-them; changes given on physical DOFs are projected by
+functions take and return :class:`~sdctrl.modal._normal_model.NormalModeModel` objects (through
+their ``replace``), and sit left of :mod:`sdctrl.modal._normal_model` in the flow so that its
+methods can call them; changes given on physical DOFs are projected by
 :func:`sdctrl.updating._reanalysis.reanalysis`.
 """
 

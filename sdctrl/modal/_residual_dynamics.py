@@ -6,11 +6,11 @@ out-of-band modes (one pole may stand for several modes, its residue is not the 
 collocated mode), or modes whose properness cannot be enforced (no small real root of the
 Riccati equation 3.52, too few sensors for the reduced coordinates 3.46-3.47), and the
 significant improper part of an in-band residue (the identified residue minus the proper
-normal mode's at the same pole) -- stays a complex-mode term ``R_j / (s - lambda_j) + conj(R_j) / (s - conj(lambda_j))`` (3.7) in a
-:class:`ResidualDynamics` block.  The block lives at the tested inputs and outputs (it has no
-FE shapes): a model's FRF and state-space form add it where the model's sensor and actuator
-labels match the block's, realised in the real 2x2-block form (3.26)-(3.33)
-(:func:`sdctrl._lib.statespace.complex_blocks`).
+normal mode's at the same pole) -- stays a complex-mode term
+``R_j / (s - lambda_j) + conj(R_j) / (s - conj(lambda_j))`` (3.7) in a :class:`ResidualDynamics`
+block.  The block lives at the tested inputs and outputs (it has no FE shapes): a model's FRF and
+state-space form add it where the model's sensor and actuator labels match the block's, realised in
+the real 2x2-block form (3.26)-(3.33) (:func:`sdctrl._lib.statespace.complex_blocks`).
 """
 
 from __future__ import annotations

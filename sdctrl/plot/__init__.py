@@ -27,4 +27,5 @@ from sdctrl.plot._shape_plots import complex_residues, mode_shapes, phase_disper
 from sdctrl.plot._statistics_plot import correlation, mode_table
 
 __all__ = ["bode", "cmif", "complex_residues", "correlation", "cost_map", "diagnosis",
-           "envelope", "mac", "mode_shapes", "mode_table", "phase_dispersion", "phase_display", "stabilisation", "stabilisation_flags"]
+           "envelope", "mac", "mode_shapes", "mode_table", "phase_dispersion", "phase_display",
+           "stabilisation", "stabilisation_flags"]

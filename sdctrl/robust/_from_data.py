@@ -23,8 +23,8 @@ poles' and residues' standard deviations (3.56), (3.58), carried by
 do not determine (NaN) stay certain, and the source says how many.  Left certain, they move
 from test to test outside the envelope: the FRF envelope of a plate's 3 x 1 subtest held the
 truth at 57% of its lines at 95% (27% at 50%), now at 98% (68%: the hull of a box of
-independent intervals is conservative; tests/test_statistics_envelope.py).  With several tests the residual dynamics stay certain
-(their poles need not pair from test to test).
+independent intervals is conservative; tests/test_statistics_envelope.py).  With several tests the
+residual dynamics stay certain (their poles need not pair from test to test).
 """
 
 from __future__ import annotations

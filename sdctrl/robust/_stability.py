@@ -4,11 +4,13 @@ The Delta channels of the closed loop ``u = -K y`` read and drive a few signals 
 displacements and velocities, modal forces, sensors, actuators; :meth:`UncertainModel.compact_lft`),
 so their response is ``M(s) = L Mc(s) R`` with a small core ``Mc``.  The margin is bracketed by
 
-- a lower bound: the smallest destabilising real Delta found (:func:`sdctrl.robust.mu._lower.destabilise`,
-  the real-parameter form of the mu power iteration), returned so that it can be checked;
+- a lower bound: the smallest destabilising real Delta found
+  (:func:`sdctrl.robust.mu._lower.destabilise`, the real-parameter form of the mu power iteration),
+  returned so that it can be checked;
 - an upper bound of the mixed real mu (real parameters regularised by a small complex part
-  ``eps``) by D-G scalings (:mod:`sdctrl.robust.mu._upper`), certified on intervals covering the whole
-  frequency axis (:mod:`sdctrl.robust.mu._frequency_sweep`): the guaranteed margin holds between grid points too.
+  ``eps``) by D-G scalings (:mod:`sdctrl.robust.mu._upper`), certified on intervals covering the
+  whole frequency axis (:mod:`sdctrl.robust.mu._frequency_sweep`): the guaranteed margin holds
+  between grid points too.
 """
 from __future__ import annotations
 

@@ -3,21 +3,21 @@
 The uncertain model (5.5) is ``p'' + (Gamma + dGamma) p' + (Omega + dOmega) p = (phib + db) u``,
 ``y = (cphi + dc) p + E u``.  Every uncertain entry is one real parameter; a symmetric off-diagonal
 pair of ``Gamma`` or ``Omega`` is one repeated real scalar (a rank-two channel).  The perturbation
-enters affinely, so the linear fractional transformation built by :meth:`UncertainModel.lft` is exact.
-The model's residual dynamics (identified poles kept as complex modes, ``model.residual``)
+enters affinely, so the linear fractional transformation built by :meth:`UncertainModel.lft` is
+exact.  The model's residual dynamics (identified poles kept as complex modes, ``model.residual``)
 are part of the plant, certain: their 2x2 blocks (3.26)-(3.33) follow the modal states in
 every realisation (nominal, perturbed, LFT), so that the uncertain model responds as its
 nominal model does (without them the plate's uncertain model from a survey missed half of
 its FRF in the band).  So are ``E`` and the correction modes of ``F``, last
 (:mod:`._fixed_parts`): the nominal StateSpace is the model's own ``to_statespace()``.
 
-Place in the flow: this module sits *before* :mod:`sdctrl.modal._normal_model` (``frf -> io -> uncertainty ->
-modal``), so that :meth:`NormalModeModel.uncertain` builds an :class:`UncertainModel` without a
-cycle.  It never imports :mod:`sdctrl.modal._normal_model`: it reads the nominal model through its fields
-(``Omega``, ``Gamma``, ``cphi``, ``phib``, ``E``, ``F``, ``sensors``, ``actuators``,
-``frequency``) and copies it with ``model.replace``, which every normal-mode model (identified,
-FE-derived, hybrid) has.  The robustness analysis that uses it (:mod:`sdctrl.robust._stability`) sits after
-the closed-loop modules.
+Place in the flow: this module sits *before* :mod:`sdctrl.modal._normal_model`
+(``frf -> io -> uncertainty -> modal``), so that :meth:`NormalModeModel.uncertain` builds an
+:class:`UncertainModel` without a cycle.  It never imports :mod:`sdctrl.modal._normal_model`: it
+reads the nominal model through its fields (``Omega``, ``Gamma``, ``cphi``, ``phib``, ``E``, ``F``,
+``sensors``, ``actuators``, ``frequency``) and copies it with ``model.replace``, which every
+normal-mode model (identified, FE-derived, hybrid) has.  The robustness analysis that uses it
+(:mod:`sdctrl.robust._stability`) sits after the closed-loop modules.
 """
 from __future__ import annotations
 

@@ -2,9 +2,9 @@
 
 One ``.npz`` file holds plain arrays and one JSON document (member ``__sdctrl__``, UTF-8 bytes)
 that names the type, the format version and every field; nothing is pickled and loading never
-executes code (``allow_pickle=False``, readers in :mod:`sdctrl._lib.npzfile`).  A round trip is exact:
-arrays bit for bit with their dtypes, labels, tuples, floats (``nan``/``inf`` included) and the
-``info`` dicts.
+executes code (``allow_pickle=False``, readers in :mod:`sdctrl._lib.npzfile`).  A round trip is
+exact: arrays bit for bit with their dtypes, labels, tuples, floats (``nan``/``inf`` included) and
+the ``info`` dicts.
 
 Values are encoded recursively: ``None``, ``bool``, ``int``, ``str`` and finite ``float`` as JSON;
 every other value as a JSON object with one key naming its kind -- ``{"array": member}`` (an
@@ -30,8 +30,8 @@ itself with one call, usually::
                    kinds={"worst_delta": "f", "mu_freq": "f", "mu": "f"}, build=_build_robust)
 
 (fields read from the dataclass; ``build``, or else the constructor, validates them: see
-:mod:`sdctrl.storage._builtin` and, for the results of FE updating, :mod:`sdctrl.storage._update_codecs`)
-or, for full control,
+:mod:`sdctrl.storage._builtin` and, for the results of FE updating,
+:mod:`sdctrl.storage._update_codecs`) or, for full control,
 ``register(Codec(name, cls, to_fields, from_fields, kinds))``.  Names are never reused for another
 type: files written today must load tomorrow.
 """

@@ -15,8 +15,8 @@ __all__: list[str] = []
 
 def _build_uncertain(model, dGamma, dOmega, db, dc, params=(), source="", dpoles=None,
                      dresidues=None):
-    """UncertainModel from stored fields, checked as :func:`sdctrl.robust._uncertainty.uncertain` builds
-    them (the dataclass itself does not validate)."""
+    """UncertainModel from stored fields, checked as :func:`sdctrl.robust._uncertainty.uncertain`
+    builds them (the dataclass itself does not validate)."""
     from sdctrl.modal._normal_model import NormalModeModel
     from sdctrl.robust._uncertainty import UncertainModel
 
@@ -126,7 +126,8 @@ def _build_hybrid(**values):
 
 register_attrs("FRF", "sdctrl.data._frf:FRF",
                ("freq", "H", "quantity", "sensors", "actuators", "collocated", "coherence",
-                "units", "exponential_tau", "averages"), kinds={"freq": "f", "H": "c", "coherence": "f"})
+                "units", "exponential_tau", "averages"),
+               kinds={"freq": "f", "H": "c", "coherence": "f"})
 register_attrs("ComplexModeModel", "sdctrl.identification:ComplexModeModel",
                kinds={"poles": "c", "residues": "c", "E": "f", "F": "f", "in_band": "b"},
                build=_build_complex)

@@ -2,8 +2,8 @@
 
 One save format remains (:func:`sdctrl.save`); files of the former FRF-only format still load.
 Members ``freq``, ``H``, ``quantity``, ``sensors``, ``actuators``, ``collocated``, ``units``
-and optionally ``coherence``.  Reading goes through :func:`sdctrl._lib.npzfile.read_arrays`: nothing is
-unpickled and a damaged or hostile file is refused before any large allocation.  Models and
+and optionally ``coherence``.  Reading goes through :func:`sdctrl._lib.npzfile.read_arrays`: nothing
+is unpickled and a damaged or hostile file is refused before any large allocation.  Models and
 results of every kind are saved by :func:`sdctrl.save` instead.
 """
 

@@ -12,8 +12,8 @@ from it, and the measurement's own error level (thesis 4.1, 4.2.1).
 - :func:`error_level` is the expected logLS cost of the measurement against the truth:
   ``mean((1 - coherence) / (2 n_averages))`` from the coherence (3.59) (the log-magnitude
   takes half the variance of a complex relative error) when it measures the noise (not one
-  up to round-off: :func:`~sdctrl.data._coherence.measured_coherence`), else the misfit of an identified
-  model, robustly: ``median(r^2) / 0.455`` of its log-magnitude residuals ``r`` (the
+  up to round-off: :func:`~sdctrl.data._coherence.measured_coherence`), else the misfit of an
+  identified model, robustly: ``median(r^2) / 0.455`` of its log-magnitude residuals ``r`` (the
   median of a chi-square variable of one degree of freedom), so that a locally poor fit
   (a missed mode) does not pass for noise.
 """

@@ -5,8 +5,8 @@ loop through the few signals they read and drive), a scaling pair ``(D, G)`` tha
 ``mu(M(j w0)) < beta`` at one frequency certifies it on the whole interval around ``w0`` bounded
 by the nearest imaginary eigenvalues of a Hamiltonian matrix of twice the state dimension
 (:func:`interval`).  :func:`cover` covers ``[0, inf)`` with such intervals: the cheap
-Osborne-balanced bound where it suffices, the D-G bound (:func:`sdctrl.robust.mu._upper.dg_upper`, warm
-started from the nearest frequency done) elsewhere, new frequencies in the gaps until none is
+Osborne-balanced bound where it suffices, the D-G bound (:func:`sdctrl.robust.mu._upper.dg_upper`,
+warm started from the nearest frequency done) elsewhere, new frequencies in the gaps until none is
 left.  The level ``beta`` rises only where the bound at a frequency is above it, so the result
 holds for every frequency, not only on a grid.
 """
@@ -123,12 +123,12 @@ def interval(fs: FactoredSystem, st: BlockStructure, x, beta: float, w0: float,
              tol: float = 1e-7):
     """Frequency interval around ``w0`` on which the scalings ``x`` certify ``mu <= beta``.
 
-    In scaled form the condition (1) of :mod:`sdctrl.robust.mu._upper` reads ``Psi(w) = T Q(w) T^H - beta^2 I
-    <= 0`` where only ``Q`` depends on the frequency, through the core:
-    ``Q = N^H Pi N`` with ``N(s) = blkdiag(Mc(s), I) T^H``, ``Pi = [[W, -jI], [jI, 0]]``,
-    ``W = Lh^H Lh``.  ``det Psi(j w) = 0`` exactly when ``j w`` is an eigenvalue of the
-    Hamiltonian matrix of this Popov function, of size twice the state dimension; between two
-    such frequencies ``Psi`` keeps its inertia.
+    In scaled form the condition (1) of :mod:`sdctrl.robust.mu._upper` reads
+    ``Psi(w) = T Q(w) T^H - beta^2 I <= 0`` where only ``Q`` depends on the frequency, through the
+    core: ``Q = N^H Pi N`` with ``N(s) = blkdiag(Mc(s), I) T^H``, ``Pi = [[W, -jI], [jI, 0]]``,
+    ``W = Lh^H Lh``.  ``det Psi(j w) = 0`` exactly when ``j w`` is an eigenvalue of the Hamiltonian
+    matrix of this Popov function, of size twice the state dimension; between two such frequencies
+    ``Psi`` keeps its inertia.
 
     Parameters
     ----------

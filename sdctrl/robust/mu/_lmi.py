@@ -5,10 +5,11 @@ For a fixed ``beta`` the condition (1) of :mod:`sdctrl.robust.mu._upper`,
     M^H D M + j (G M - M^H G) - beta^2 D <= 0,    D >= I,    (D, G) commuting with Delta,
 
 is a linear matrix inequality in the scalings (Fan, Tits and Doyle 1991); the smallest feasible
-``beta`` (bisection) is the optimal D-G bound that the BFGS search of :func:`sdctrl.robust.mu._upper.dg_upper`
-approaches from above.  The problem is written once per matrix with the block structure as
-block-diagonal variables (a Hermitian ``D_k`` and ``G_k`` per repeated scalar, ``d_k I`` per full
-block) and ``beta^2`` as a cvxpy parameter, so the bisection re-solves without recompiling.
+``beta`` (bisection) is the optimal D-G bound that the BFGS search of
+:func:`sdctrl.robust.mu._upper.dg_upper` approaches from above.  The problem is written once per
+matrix with the block structure as block-diagonal variables (a Hermitian ``D_k`` and ``G_k`` per
+repeated scalar, ``d_k I`` per full block) and ``beta^2`` as a cvxpy parameter, so the bisection
+re-solves without recompiling.
 
 The solver's answer is never returned as a bound: its scalings are certified by the exact
 generalised eigenvalue (:func:`certify_dg`), so whatever the solver's accuracy, every value

@@ -2,8 +2,8 @@
 
 The closed loop with the real parameters ``delta`` (one per block, ``|delta_i| <= alpha``) has
 the state matrix ``A(delta) = A + Bc (I - Psi Dc)^-1 Psi Cc`` with ``Psi = R diag(delta) L``
-(channels read and drive a few signals, :class:`sdctrl.robust.mu._frequency_sweep.FactoredSystem`).  Any
-``delta`` that puts an eigenvalue on the imaginary axis proves ``margin <= max|delta_i|``.
+(channels read and drive a few signals, :class:`sdctrl.robust.mu._frequency_sweep.FactoredSystem`).
+Any ``delta`` that puts an eigenvalue on the imaginary axis proves ``margin <= max|delta_i|``.
 
 The search is the real-parameter form of the mu power iteration (Young, Newlin and Doyle):
 from each closed-loop pole, ``delta = alpha sign(d Re(lambda) / d delta)`` (the vertex that

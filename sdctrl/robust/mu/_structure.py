@@ -22,7 +22,8 @@ BLOCK_KINDS = ("real", "complex", "full")
 
 @dataclass(frozen=True, eq=False)
 class Factored:
-    """``M = L @ K @ R`` (``L``: (N, p), ``K``: (p, m), ``R``: (m, N)); ``L = R = None`` means ``M = K``.
+    """``M = L @ K @ R`` (``L``: (N, p), ``K``: (p, m), ``R``: (m, N)); ``L = R = None`` means
+    ``M = K``.
 
     Parameters
     ----------

@@ -15,9 +15,9 @@ Osborne-balanced ``D`` (the cheap complex bound).  Every returned value is the e
 the returned scalings: a certificate, never a solver's claim.
 
 A matrix of the form ``M = L K R`` with few columns in ``L`` and rows in ``R`` (the Delta channels
-of an uncertain modal model read and drive a few signals, see :mod:`sdctrl.robust._stability`) is handled
-without forming ``M``: the eigenvalue of (1) is that of a matrix of the size of ``K``, so a bound
-on hundreds of channels costs little more than one on a few.
+of an uncertain modal model read and drive a few signals, see :mod:`sdctrl.robust._stability`) is
+handled without forming ``M``: the eigenvalue of (1) is that of a matrix of the size of ``K``, so a
+bound on hundreds of channels costs little more than one on a few.
 """
 from __future__ import annotations
 
