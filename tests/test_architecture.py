@@ -266,6 +266,21 @@ def test_no_module_over_500_lines():
     assert not big, big
 
 
+#: the checkout's other Python directories, next to this file's (pyproject's ``line-length``)
+REPO = pathlib.Path(__file__).resolve().parents[1]
+LINE_LENGTH = 100
+
+
+def test_no_line_over_100_columns():
+    files = [(pathlib.Path(ROOT.name) / p.relative_to(ROOT), p) for _, p in _modules()]
+    files += [(p.relative_to(REPO), p) for d in ("tests", "examples", "benchmarks")
+              for p in sorted((REPO / d).rglob("*.py"))]
+    long = [f"{name}:{i} ({len(line)})" for name, p in files
+            for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+            if len(line) > LINE_LENGTH]
+    assert not long, f"{len(long)} lines over {LINE_LENGTH} columns: {long}"
+
+
 def _code_lines(lines: list[str]) -> int:
     return sum(1 for s in lines if s.strip() and not s.strip().startswith("#"))
 
