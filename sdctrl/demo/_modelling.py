@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sdctrl.data._coherence import measured_coherence
 from sdctrl.report import Check, psd_check
 
 __all__ = ["WRONG", "Hybrid", "Placement", "Update", "build_hybrid", "place_strut", "update_fe"]
@@ -147,7 +148,8 @@ def update_fe(test, normal_modes, progress: bool | None = None, ident=None) -> U
 
     The identifiability check (Table 4.1) and the update use the identified normal modes'
     damping; the check's error level is the misfit of the identification of step 2 when
-    given (the test has no coherence), so the test is not identified a second time.
+    given (the test has no coherence measuring its noise), so the test is not identified a
+    second time.
 
     Parameters
     ----------
@@ -171,7 +173,7 @@ def update_fe(test, normal_modes, progress: bool | None = None, ident=None) -> U
     params = [wrong.stiffness_parameter("links", section=["post_AB", "post_C"]),
               wrong.mass_parameter("plates", list(PLATE_NODES))]
     noise = None
-    if ident is not None and test.frf.coherence is None:
+    if ident is not None and measured_coherence(test.frf) is None:
         from sdctrl.updating._placed_test import error_level, place_test
 
         noise = error_level(place_test(wrong, test.frf, None), ident.cm)[0]
