@@ -39,7 +39,7 @@ import numpy as np
 from sdctrl.identification._far_terms import far_terms, oob_grid
 from sdctrl.identification._noise import NoiseTest
 from sdctrl.identification._missed_scan import ResidualScan
-from sdctrl.identification._rules import INDEPENDENT, SelectionRules
+from sdctrl.identification._rules import INDEPENDENT, SelectionRules, stop_message
 from sdctrl.identification._search import OUT_FACTOR, search_poles
 from sdctrl.identification._travel import filler, scanned, travel
 from sdctrl.identification._zoom import sole_poles, zoom_candidates
@@ -475,7 +475,7 @@ class AutoSelection:
                 break
             state = self.best = new
         else:
-            self.warn(f"automatic pole selection stopped after {rounds} rounds")
+            self.warn(stop_message(rounds, self.rules))
         return self._final_prune()
 
     def _final_prune(self):
