@@ -2,6 +2,7 @@
 3-mode system, damping corrected for the exponential window, double hits and overloads, and
 one meaning of ``band`` in ``identify``."""
 
+import functools
 import pathlib
 import warnings
 
@@ -205,15 +206,21 @@ def test_band_argument_is_the_band_method_on_the_testbed():
 REAL = pathlib.Path(__file__).resolve().parents[1] / "examples" / "data" / "impact_pyfrf"
 
 
-def test_real_impact_records():
-    """The 5 hammer hits of pyFRF (MIT, examples/data/impact_pyfrf): H1 with the source's
-    windows, the documented resonances found, damping corrected for the window, and one
-    meaning of ``band``."""
+@functools.lru_cache(maxsize=None)
+def _real_frf():
+    """The 5 hammer hits of pyFRF (MIT, examples/data/impact_pyfrf) as one H1 FRF with the
+    source's windows (an FRF is immutable: the tests share it)."""
     hits = [tuple(np.load(REAL / f"measurements_{k}.npy")[1:]) for k in range(1, 6)]
     with warnings.catch_warnings():
         warnings.simplefilter("error", sd.ImpactWarning)   # no double hit, overload
-        frf = sd.impact_frf(hits, 25600.0, force_window=0.01, exponential=0.01,
-                            quantity="accelerance")
+        return sd.impact_frf(hits, 25600.0, force_window=0.01, exponential=0.01,
+                             quantity="accelerance")
+
+
+def test_real_impact_records():
+    """The 5 hammer hits of pyFRF: H1 with the source's windows, the documented resonances
+    found, damping corrected for the window, and one meaning of ``band``."""
+    frf = _real_frf()
     assert frf.shape == (12800, 1, 1) and frf.quantity == "acceleration"
     assert frf.exponential_tau == pytest.approx((25599 / 25600) / np.log(100), rel=1e-12)
     assert frf.band(10, 5000).coherence.mean() > 0.99       # source: about 0.998
@@ -267,9 +274,7 @@ def test_real_impact_records_over_a_wide_band():
     from sdctrl.identification import IdentificationWarning
     from sdctrl.identification._quality import coherence_floor
 
-    hits = [tuple(np.load(REAL / f"measurements_{k}.npy")[1:]) for k in range(1, 6)]
-    frf = sd.impact_frf(hits, 25600.0, force_window=0.01, exponential=0.01,
-                        quantity="accelerance")
+    frf = _real_frf()
     band = (100.0, 5000.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", IdentificationWarning)      # no fit-quality warning
