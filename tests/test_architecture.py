@@ -5,6 +5,7 @@ import importlib.util
 import inspect
 import pathlib
 import pickle
+import re
 
 import pytest
 
@@ -266,9 +267,11 @@ def test_no_module_over_500_lines():
     assert not big, big
 
 
-#: the checkout's other Python directories, next to this file's (pyproject's ``line-length``)
+#: the checkout's other Python directories, next to this file's
 REPO = pathlib.Path(__file__).resolve().parents[1]
-LINE_LENGTH = 100
+#: pyproject's ``line-length`` (read, not repeated: tomllib is 3.11+, the project 3.10+)
+LINE_LENGTH = int(re.search(r"^line-length\s*=\s*(\d+)", (REPO / "pyproject.toml").read_text(),
+                            re.MULTILINE).group(1))
 
 
 def test_no_line_over_100_columns():
