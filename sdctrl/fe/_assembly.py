@@ -59,7 +59,10 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
         Boundary conditions: node names (all the node's DOFs clamped) or DOF labels
         (``"N1.z"``) that are removed from the model.
     rayleigh : (float, float), optional
-        Proportional damping ``C += alpha M + beta K``.
+        Proportional damping ``C += alpha M + beta K`` (two finite numbers >= 0).  Recorded
+        on ``fe.assembly``: :meth:`FEModel.stiffness_parameter` and
+        :meth:`FEModel.mass_parameter` carry it along (``dC = beta dK``, ``alpha dM``), so
+        that a model updated through them keeps the damping law it was assembled with.
     lumped : bool
         Lumped mass for bars (beams always use the consistent mass).
     sparse : bool
@@ -85,6 +88,7 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
     ('B.x', 'B.y', 'B.z')
     """
 
+    rayleigh = _check_rayleigh(rayleigh)
     names, xyz = _parse_nodes(nodes)
     materials = dict(materials or {})
     sections = dict(sections or {})
@@ -107,7 +111,8 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
         C = None if C is None else C.tocsr()
     node_xyz = {n: tuple(float(v) for v in xyz[i]) for i, n in enumerate(names)}
     pairs = list(dict.fromkeys(els.pairs))          # unique element node pairs, order kept
-    record = Assembly.from_parsed(els, xyz, gidx, N, materials, sections, lumped)
+    record = Assembly.from_parsed(els, xyz, gidx, N, materials, sections, lumped,
+                                  rayleigh)
     return FEModel(M, K, C, dofs=dofs, nodes=node_xyz, elements=pairs, assembly=record)
 
 
@@ -297,6 +302,20 @@ def _discrete(items, gidx, N):
     v = np.array([x for _, _, x in items])
     Ke = v[:, None, None] * np.array([[1.0, -1.0], [-1.0, 1.0]])
     return assemble_coo(np.stack([ia, ib], axis=1), Ke, N)
+
+
+def _check_rayleigh(rayleigh):
+    """``(alpha, beta)`` as two finite floats >= 0, or None."""
+    if rayleigh is None:
+        return None
+    try:
+        vals = tuple(float(v) for v in rayleigh)
+    except (TypeError, ValueError):
+        raise TypeError(f"rayleigh must be two numbers (alpha, beta), got {rayleigh!r}") from None
+    if len(vals) != 2 or not all(np.isfinite(v) and v >= 0 for v in vals):
+        raise ValueError(f"rayleigh must be two finite numbers >= 0 (alpha, beta), got "
+                         f"{rayleigh!r}")
+    return vals
 
 
 def _damping(C, M, K, rayleigh):

@@ -55,13 +55,20 @@ class Parameter:
         given added mass), limited to the bounds.
     description : str
         Free text shown in reports (e.g. which elements or nodes); None means "".
+    rayleigh : (float, float)
+        ``(alpha, beta)``: the change carries the model's Rayleigh damping law, ``C`` gains
+        ``p (alpha dM + beta dK)`` besides ``p dC`` wherever the model's own damping matrix
+        is used (:func:`sdctrl.update` with ``damping=None``, the updated FE model); a
+        modal damping model (a given ratio, ``"data"``) replaces that law and keeps ``dC``
+        alone.  Default ``(0, 0)``; :meth:`FEModel.stiffness_parameter` and
+        :meth:`FEModel.mass_parameter` set it from the model's assembly.
 
     Raises
     ------
     ValueError
         No matrix given, matrices not square, symmetric, finite or of one size, an empty
         name, bounds that are not ``lo < hi`` with ``lo <= 0 <= hi``, a ``scale`` that is
-        not a positive finite number.
+        not a positive finite number, ``rayleigh`` not two finite numbers >= 0.
     TypeError
         ``name`` or ``description`` is not a string, a matrix or ``scale`` not numeric.
 
@@ -80,6 +87,7 @@ class Parameter:
     bounds: tuple[float, float] = DEFAULT_BOUNDS
     scale: float | None = None
     description: str = field(default="")
+    rayleigh: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self):
         if not isinstance(self.name, str):
@@ -105,6 +113,7 @@ class Parameter:
         sets(self, "bounds", check_bounds(self.bounds, f"Parameter {self.name!r}: bounds"))
         sets(self, "scale", check_scalar(self.scale, f"Parameter {self.name!r}: scale",
                                          positive=True, optional=True))
+        sets(self, "rayleigh", _check_law(self.rayleigh, f"Parameter {self.name!r}: rayleigh"))
         if self.description is None:
             sets(self, "description", "")
         elif not isinstance(self.description, str):
@@ -132,14 +141,37 @@ class Parameter:
             return self.scale if hi > 0 else -self.scale
         return min(1.0, hi) if hi > 0 else max(-1.0, lo)
 
-    def matrices(self) -> tuple:
-        """``(dM, dC, dK)``, each None when absent.
+    def matrices(self, law: bool = True) -> tuple:
+        """``(dM, dC, dK)``, each None when absent; with ``law`` the damping change holds the
+        Rayleigh law too, ``dC + alpha dM + beta dK`` (:attr:`rayleigh`).
+
+        Parameters
+        ----------
+        law : bool
+            Include the Rayleigh law (the model's own damping matrix is used); False: a
+            modal damping model replaces it.
 
         Returns
         -------
         tuple
         """
-        return self.dM, self.dC, self.dK
+        dC = self.dC
+        if law:
+            for c, X in zip(self.rayleigh, (self.dM, self.dK)):
+                if c and X is not None:
+                    dC = c * X if dC is None else dC + c * X
+        return self.dM, dC, self.dK
+
+
+def _check_law(law, name: str) -> tuple[float, float]:
+    """``(alpha, beta)`` as two finite floats >= 0."""
+    try:
+        vals = tuple(float(v) for v in law)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be two numbers (alpha, beta), got {law!r}") from None
+    if len(vals) != 2 or not all(math.isfinite(v) and v >= 0 for v in vals):
+        raise ValueError(f"{name} must be two finite numbers >= 0 (alpha, beta), got {law!r}")
+    return vals
 
 
 def check_bounds(bounds, name: str = "bounds") -> tuple[float, float]:

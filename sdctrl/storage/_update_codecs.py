@@ -64,9 +64,10 @@ def _properties(v, what: str) -> MappingProxyType:
 
 
 def _build_assembly(N, names, xyz, gidx, groups, materials, sections, lumped, mass_nodes,
-                    mass_values):
+                    mass_values, rayleigh=(0.0, 0.0)):
     """:class:`~sdctrl.fe._groups.Assembly` checked: node table, DOF numbers, element groups
-    whose nodes, materials and sections exist, lumped masses on existing nodes."""
+    whose nodes, materials and sections exist, lumped masses on existing nodes, the Rayleigh
+    coefficients (files written before they were recorded: none)."""
     from sdctrl.fe._groups import Assembly
 
     if isinstance(N, bool) or not isinstance(N, int) or N < 1:
@@ -100,8 +101,13 @@ def _build_assembly(N, names, xyz, gidx, groups, materials, sections, lumped, ma
     if mass_nodes.size and (mass_nodes.min() < 0 or mass_nodes.max() >= nn):
         raise ValueError(f"assembly mass_nodes must hold node indices in [0, {nn})")
     mass_values = _array(mass_values, "assembly mass_values", "f", (mass_nodes.size, 6))
+    if not isinstance(rayleigh, tuple) or len(rayleigh) != 2:
+        raise _fail("assembly rayleigh", rayleigh)
+    ray = tuple(_number(v, "assembly rayleigh") for v in rayleigh)
+    if min(ray) < 0:
+        raise _fail("assembly rayleigh", rayleigh)
     return Assembly(N, names, xyz, gidx, tuple(out), mats, secs, lumped, mass_nodes,
-                    mass_values)
+                    mass_values, ray)
 
 
 def _build_reduced(Mr, Cr, Kr, dM, dC, dK, c, b, names):

@@ -233,7 +233,8 @@ def reduced_model(basis, parameters, sensors, actuators, C=None) -> ReducedModel
     basis : ReducedBasis
         The Ritz basis ``T``.
     parameters : sequence of Parameter
-        The parameters (their ``dM, dC, dK`` projected once).
+        The parameters (their ``dM, dC, dK`` projected once; ``dC`` with their Rayleigh law
+        when the model's own ``C`` is given, without it under modal damping).
     sensors : ndarray of int, shape (ns,)
         DOF indices of the point displacement sensors.
     actuators : ndarray of int, shape (na,)
@@ -249,7 +250,7 @@ def reduced_model(basis, parameters, sensors, actuators, C=None) -> ReducedModel
     n, npar = basis.n, len(parameters)
     d = {k: np.zeros((npar, n, n)) for k in ("dM", "dC", "dK")}
     for i, par in enumerate(parameters):
-        for key, X in zip(("dM", "dC", "dK"), par.matrices()):
+        for key, X in zip(("dM", "dC", "dK"), par.matrices(law=C is not None)):
             if X is not None:
                 d[key][i] = basis.project(X)
     Cr = np.zeros((n, n)) if C is None else basis.project(C)
