@@ -75,17 +75,22 @@ def test_the_default_basis_grows_while_it_limits_the_fit():
     """The cluster tested over 6-15 Hz (its blade cluster and the hub's first modes): with
     modes to 2.5 x 15 Hz the update ends 101x above the floor with the hub stiffness 1.1%
     off; the same parameters on modes to 75 Hz halve the cost, so the default basis is
-    doubled and the update reaches the floor (MEASURED 5.7x) with the hub within 4e-4.  A
-    caller's own fmax is kept (and the verdict names the basis)."""
+    doubled and the update reaches the floor with the hub within 4e-4 (MEASURED 5.7x).
+    Since the logLS is refined around the model solved again on that basis
+    (``updating._final_stages``): 4.7x, hub and blades 2.6e-4 / 3.8e-5 off (std 5.7e-4 /
+    2.3e-5).  A caller's own fmax is kept (and the verdict names the basis)."""
     st = sd.testbeds.structure("cluster")
     frf = st.frf(n=400, noise=0.01, seed=1, band=(6, 15))
     with warnings.catch_warnings():
         warnings.simplefilter("error")                        # at the floor: no warning
         r = sd.update(st.wrong(), frf, st.parameters(), progress=False)
-    assert [s["stage"] for s in r.stages][-1] == "basis grown: modes to 75 Hz"
-    assert not r.fit.above and r.fit.ratio <= 7                 # 5.68
-    assert all(abs(r.values[k] - v) <= 1e-3 for k, v in st.truth.items())
+    names = [s["stage"] for s in r.stages]
+    assert names[-3:] == ["basis grown: modes to 75 Hz", "logLS around the new solution",
+                          "full FE solved again"]
+    assert not r.fit.above and r.fit.ratio <= 6                 # 4.72 (5.68 unrefined)
+    assert all(abs(r.values[k] - v) <= 4e-4 for k, v in st.truth.items())
     with pytest.warns(RuntimeWarning, match="reduced basis limits the fit"):
         kept = sd.update(st.wrong(), frf, st.parameters(), progress=False, fmax=37.5)
     assert not any(s["stage"].startswith("basis") for s in kept.stages)
-    assert kept.fit.ratio > 50 and abs(kept.values["hub"] - st.truth["hub"]) > 0.005
+    # 99x, the hub 3.6e-3 off (1.1e-2 before the refinement around the re-solved model)
+    assert kept.fit.ratio > 50 and abs(kept.values["hub"] - st.truth["hub"]) > 0.002

@@ -12,8 +12,9 @@ FE models are often several percent off.  So:
 2. **logLS** -- from there, the logLS cost of all the measured FRFs is minimised on the
    reanalysed model (4.17) (bounded trust-region least squares);
 3. **re-solve** -- the full FE model is solved again at the optimum (its own modes and
-   static correction modes); if that model's cost departs from the reduced one, stage 2
-   runs again around the new solution.
+   static correction modes) and stage 2 runs again around it while that is predicted to
+   move the parameters by a tenth of their standard deviation or more (the reduced basis's
+   optimum is not the full model's), each step kept if the model solved again agrees.
 
 The cost before and after, the parameter table and the paired modes are in
 :class:`UpdateResult`.
@@ -34,7 +35,8 @@ from sdctrl._lib.display import markdown_table
 from sdctrl._lib.validate import check_int, check_scalar
 from sdctrl.fe._parameters import Parameter
 from sdctrl.fe._fe_model import check_fe_model
-from sdctrl.updating._basis_growth import Solved, grown, on_richer_basis
+from sdctrl.updating._basis_growth import grown, on_richer_basis
+from sdctrl.updating._final_stages import Solved, refined, resolved
 from sdctrl.updating._fit_floor import FitFloor, basis_limited, fit_floor
 from sdctrl.updating._global_start import StartBox, fit_stages, solve_bounded
 from sdctrl.updating._placed_test import measured_modes, place_test
@@ -45,8 +47,6 @@ __all__ = ["UpdateResult", "check_parameters", "damping_choice", "update"]
 
 #: normal modes of the reduced basis up to this many times the band top
 FMAX_FACTOR = 2.5
-#: a re-solved model whose cost exceeds the reduced one by this factor is refined again
-RESOLVE_TOL = 0.05
 _STRATEGIES = ("two-stage", "logls", "frequencies")
 
 
@@ -84,8 +84,9 @@ class UpdateResult:
         Source of the test modes paired with the FE modes (4.9): ``"identified complex
         modes"``, ``"identified normal modes"``, ``"given normal modes"``...
     std : dict
-        Parameter name -> one standard deviation of the fitted ``p`` under the test's noise
-        (Cramer-Rao bound of the logLS fit at the optimum,
+        Parameter name -> one standard deviation of the fitted ``p``: the larger of the
+        test's noise's (Cramer-Rao bound of the logLS fit at the optimum) and the sensors'
+        scatter (a model error that differs between sensors,
         :mod:`~sdctrl.updating._update_statistics`).
     fit : FitFloor or None
         The final cost against the noise floor estimated from the data
@@ -237,7 +238,8 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
     up to ``fmax`` with static correction modes (4.23)-(4.24) of the actuators and of the
     parameters.  Stages (see :mod:`sdctrl.updating._update_fit`): frequencies of the MAC-paired
     modes (4.8)-(4.9), logLS refinement, then the full FE model solved again at the
-    optimum (and refined again if it departs from the reduced prediction).
+    optimum (and refined around it while that moves the parameters by a tenth of their
+    standard deviation or more).
 
     Parameters
     ----------
@@ -326,11 +328,13 @@ def update(fe, frf, parameters, band=None, damping=None, *, strategy: str = "two
             cost_before = prob.cost(p)
             before = prob.pairing(p) if modes.n else None
             prob, p = fit_stages(prob, StartBox(lo, hi, scale, nfev_max), strategy, stages, bar)
-            fe1, prob1, p, cost_after = _resolve(fe, setup, prob, p,
-                                                 (lo, hi, scale, nfev_max), stages, strategy)
-            solved = Solved(setup, fe1, prob1, p, cost_after)
+            box = (lo, hi, scale, nfev_max)
+            solved = resolved(fe, setup, p, box, stages, strategy)
             if given_fmax is None and strategy != "frequencies":
-                solved = grown(fe, solved, (lo, hi, scale, nfev_max), stages)
+                richer = grown(fe, solved, box, stages)
+                if richer.setup is not solved.setup:
+                    richer = refined(fe, richer, box, stages)
+                solved = richer
             setup, fe1, prob1, p, cost_after = (solved.setup, solved.fe1, solved.prob1,
                                                 solved.p, solved.cost)
             bar.update()
@@ -411,30 +415,6 @@ class UpdateSetup:
         """
         return build_problem(fe, self.measured, self.parameters, self.damping, self.modes,
                              fmax=self.fmax, loads=self.loads)
-
-
-def _resolve(fe, setup: UpdateSetup, prob, p, opts, stages, strategy):
-    """Stage 3: solve the full model at ``p`` again; refine when the reduced model drifted."""
-    lo, hi, scale, nfev_max = opts
-    pars = setup.parameters
-    reduced_cost = prob.cost(p)
-    for _ in range(3):
-        fe1 = apply_parameters(fe, pars, p)
-        prob1 = setup.problem(fe1)
-        q0 = np.zeros(len(pars))
-        cost = prob1.cost(q0)
-        stages.append({"stage": "full FE solved again", "values": p.copy(), "cost": cost,
-                       "nfev": 1})
-        if strategy == "frequencies" or cost <= (1 + RESOLVE_TOL) * reduced_cost + 1e-12:
-            return fe1, prob1, p, cost
-        q, n = solve_bounded(prob1.residual, q0, lo - p, hi - p, scale, 1e-6, nfev_max)
-        p = np.clip(p + q, lo, hi)
-        reduced_cost = prob1.cost(q)
-        stages.append({"stage": "logLS around the new solution", "values": p.copy(),
-                       "cost": reduced_cost, "nfev": n})
-    fe1 = apply_parameters(fe, pars, p)
-    prob1 = setup.problem(fe1)
-    return fe1, prob1, p, prob1.cost(np.zeros(len(pars)))
 
 
 def _normal_mode_model(prob, fe1, measured):
