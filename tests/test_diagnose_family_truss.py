@@ -14,7 +14,7 @@ every line (``fit_free_mode``'s second pass), 1.0e-4.  Two effects (the rules pu
 and one end of the dashpot on the same node, N46): both found at their places, the error
 left the noise plus the noise-free diagnosis's own floor (4.1e-5 truss, 5.2e-5 truss_high),
 the dashpot biased by 0.7-1.2%, 17-28 of its noise's std at 1%: its std from the sensors'
-scatter (:mod:`sdctrl.diagnosis._sensor_scatter`) covers it (the last test below).  That
+scatter (:mod:`sdctrl._lib.sensor_scatter`) covers it (the last test below).  That
 bias is the test data's, not the diagnosis's: the data are a reduction of the perturbed
 structure on its own modes, the model's corrections a reduction on the nominal modes, and
 the two truncations differ at the shared node.  Against the full model's response (with the
@@ -85,7 +85,7 @@ def test_two_effects_sharing_a_node_truth_within_three_std(name):
     """Issue 23's criterion with the shared node's bias: the dashpot's truth within 3 std of
     its fitted size at 1% noise.  The noise alone gives it 0.036% (truss), 0.039%
     (truss_high), 17-28 times less than its bias; the sensors' leave-one-out scatter
-    (:mod:`sdctrl.diagnosis._sensor_scatter`) measures that model error from the data:
+    (:mod:`sdctrl._lib.sensor_scatter`) measures that model error from the data:
     1.30% and 1.98%, about twice the bias.  The mass, unbiased, keeps a small std (0.018%
     and 0.031% of its 0.128 kg)."""
     cs = (case(name, "mass_change", 1), case(name, "added_damper", 0))

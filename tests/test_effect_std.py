@@ -1,6 +1,6 @@
 """``Effect.std`` (issue 23): one standard deviation of each fitted size, from the noise
 (Cramer-Rao, :mod:`sdctrl.diagnosis._effect_statistics`) and from the sensors' scatter
-(:mod:`sdctrl.diagnosis._sensor_scatter`), whichever is larger.
+(:mod:`sdctrl._lib.sensor_scatter`), whichever is larger.
 
 Closed forms for the scatter's estimator; over noise draws on two members of the family,
 with data that the corrected model reproduces exactly (pure noise), the reported std matches
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import sdctrl as sd
-from sdctrl.diagnosis._sensor_scatter import MIN_GROUPS, channel_groups, scatter_covariance
+from sdctrl._lib.sensor_scatter import MIN_GROUPS, channel_groups, scatter_covariance
 from test_diagnose_family import case, diagnosis, member, noisy
 
 KEY = {"added_damper": "c", "mass_change": "dm"}

@@ -29,7 +29,7 @@ slightly wrong nominal model (a reduction's truncation) biases the sizes by what
 see -- a dashpot sharing its node with a mass by 17-28 of those standard deviations.  The
 same Jacobian and the residual at the fit give the covariance the data themselves show,
 the leverage-corrected leave-one-sensor-out scatter of the fit
-(:mod:`._sensor_scatter`), which contains the noise's and any model error not common to
+(:mod:`sdctrl._lib.sensor_scatter`), which contains the noise's and any model error not common to
 every sensor.  Each reported standard deviation is the larger of the two, ``max(s_noise,
 s_data) = sqrt(s_noise^2 + max(0, s_data^2 - s_noise^2))``: under pure noise the scatter
 estimates the noise's own (0.91-1.04 of it on the family) with only ``G - 1`` degrees of
@@ -47,7 +47,7 @@ import copy
 import numpy as np
 
 from sdctrl.diagnosis._residual_map import complex_residual
-from sdctrl.diagnosis._sensor_scatter import channel_groups, scatter_covariance
+from sdctrl._lib.sensor_scatter import channel_groups, scatter_covariance
 
 __all__ = ["coordinates", "effect_std", "joint_std", "mode_keys", "stacked_jacobian"]
 
@@ -89,8 +89,8 @@ def joint_std(props, model, placed, placed0, sigma2) -> list:
     effects applied in turn to ``model``), so that the covariance (module notes) accounts for
     the correlation between effects; each effect's sizes come from its own block.  Each
     standard deviation is the larger of the noise's (Cramer-Rao) and the sensors' scatter
-    (:func:`._sensor_scatter.scatter_covariance`, from the same Jacobian and the residual at
-    ``props``' coordinates, which should be the fit's optimum).
+    (:func:`sdctrl._lib.sensor_scatter.scatter_covariance`, from the same Jacobian and the
+    residual at ``props``' coordinates, which should be the fit's optimum).
 
     Parameters
     ----------

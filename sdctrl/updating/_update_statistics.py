@@ -14,12 +14,24 @@ squared residual of the fit with its degrees of freedom, ``|e|^2 / (N - npar)`` 
 error included), or an error level given by the caller.  The same formula before any
 update, at the nominal model, predicts how well a test will determine each parameter
 (:func:`~sdctrl.identifiability`).
+
+After an update the noise is not all: the FE model, its reduction or the data (itself a
+reduction of some structure) may be slightly wrong, and that bias the noise's covariance
+does not see.  So the fitted standard deviation is the larger of the noise's and the
+sensors' scatter (:mod:`sdctrl._lib.sensor_scatter`: the leverage-corrected leave-one-sensor-out
+covariance, the same rule as a diagnosis's ``Effect.std``).  Measured on the family of test
+structures at 1% noise (seeds 1-2): the trusses' test data are a modal reduction of their
+FE model (logLS 3.5e-4 from it at the true parameters, noise-free), the links come out
+2.2e-3 off, 99 noise standard deviations and 1.4 of the scatter's; on the ladder, the plate,
+the cluster and a held-out tower, whose data are their FE model's, both agree (0.1-2.4
+standard deviations).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from sdctrl._lib.sensor_scatter import channel_groups, scatter_covariance
 from sdctrl.data._coherence import measured_coherence
 
 __all__ = ["fitted_std", "log_jacobian", "log_point_variance", "parameter_covariance",
@@ -137,7 +149,8 @@ def log_jacobian(prob, steps, h: float = 1e-3) -> np.ndarray:
 
 
 def fitted_std(prob, measured, names, steps) -> dict:
-    """Standard deviation of each parameter fitted by :func:`~sdctrl.update` (module notes).
+    """Standard deviation of each parameter fitted by :func:`~sdctrl.update`: the larger of the
+    noise's and the sensors' scatter (module notes).
 
     Parameters
     ----------
@@ -158,4 +171,11 @@ def fitted_std(prob, measured, names, steps) -> dict:
     J = log_jacobian(prob, steps)
     e = prob.log_response(np.zeros(len(steps))) - measured.logH
     var = log_point_variance(measured.frf, e.shape, residual=e, npar=len(steps))
-    return std_and_correlation(names, parameter_covariance(J, var.ravel()))[0]
+    noise = std_and_correlation(names, parameter_covariance(J, var.ravel()))[0]
+    groups = channel_groups(e.shape, stacked=False)
+    C = None if groups is None else scatter_covariance(J, e.ravel(), groups)
+    if C is None:
+        return noise
+    scatter = np.sqrt(np.clip(np.diag(C), 0.0, None))
+    return {k: float(max(v, s)) if np.isfinite(v) else v
+            for (k, v), s in zip(noise.items(), scatter)}

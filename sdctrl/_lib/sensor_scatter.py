@@ -1,7 +1,10 @@
-"""Sensor-to-sensor scatter of a diagnosis's fitted sizes: their uncertainty from the data.
+"""Sensor-to-sensor scatter of fitted coordinates: their uncertainty from the data, for a
+diagnosis's fitted sizes (:mod:`sdctrl.diagnosis._effect_statistics`) and an update's
+parameters (:mod:`sdctrl.updating._update_statistics`).
 
-The Cramer-Rao covariance ``(sigma^2 / 2) (J^T J)^-1`` of :mod:`._effect_statistics` is the
-scatter that the measurement noise alone gives the fitted coordinates ``x``.  When the
+The Cramer-Rao covariance ``(sigma^2 / 2) (J^T J)^-1`` of
+:mod:`sdctrl.diagnosis._effect_statistics` is the scatter that the measurement noise alone
+gives the fitted coordinates ``x``.  When the
 nominal model is itself slightly wrong (a reduction's truncation, data that are another
 reduction of the structure) the fit carries a bias this covariance does not see: an added
 dashpot sharing its node with a mass came out 0.7-1.2% off, 17-28 of its noise standard
@@ -36,7 +39,8 @@ ladder's and the cluster's but not the plate's).  Computed in the ``p`` coordina
 with ``M_g = A^-1/2 A_g A^-1/2``; no new evaluation of the model.  A direction
 that the left-out sensor alone determines (leverage 1: a free mode's modal observability at
 that sensor, a residual term's entry) gets nothing from that sensor: the noise covariance
-stays the floor of the standard deviations (:func:`._effect_statistics.joint_std`).
+stays the floor of the standard deviations
+(:func:`sdctrl.diagnosis._effect_statistics.joint_std`).
 
 Groups are the sensors (every channel of a sensor shares its location and so its model
 error), or the channels when there are fewer than ``MIN_GROUPS`` sensors; with fewer than
@@ -55,17 +59,20 @@ MIN_GROUPS = 5
 FULL = 1e-8
 
 
-def channel_groups(shape) -> np.ndarray | None:
+def channel_groups(shape, stacked: bool = True) -> np.ndarray | None:
     """Group of each row of a stacked residual ``[Re r; Im r]`` of data ``shape``.
 
     Parameters
     ----------
     shape : tuple of int
         ``(nf, ns, na)``: lines, data sensors, data actuators.
+    stacked : bool
+        Rows ``[Re r; Im r]`` (a complex residual); False: one row per point (a real one,
+        such as the update's ``log|H|`` residual).
 
     Returns
     -------
-    ndarray of int, shape (2 nf ns na,), or None
+    ndarray of int, shape (2 nf ns na,) (``nf ns na`` unstacked), or None
         The row's sensor when ``ns >= MIN_GROUPS``, else its channel ``(sensor, actuator)``
         numbered ``i na + j`` when ``ns na >= MIN_GROUPS``, else None (no scatter).
     """
@@ -76,7 +83,8 @@ def channel_groups(shape) -> np.ndarray | None:
         per = np.arange(ns * na)
     else:
         return None
-    return np.tile(np.tile(per, nf), 2)
+    rows = np.tile(per, nf)
+    return np.tile(rows, 2) if stacked else rows
 
 
 def scatter_covariance(J, r, groups) -> np.ndarray | None:
