@@ -8,26 +8,41 @@ truth; ratio = final logLS / the data's noise floor, :mod:`sdctrl.updating._fit_
 =========== ===================== ======== ===================== =======
 member       noise-free errors     ratio    1% errors             ratio
 =========== ===================== ======== ===================== =======
-truss        -5e-5, -1e-5          490      -3e-5, 0              13.8
-truss_high   -1.2e-4, -4e-5        3,932    -1.0e-4, -3e-5        22.4
-ladder       +4.5e-4, -7e-5        20       +4.5e-4, -6e-5        3.7
-plate        +5e-5, +7e-5          22       +5e-5, +9e-5          1.0
-cluster      +2.9e-4 (a)           7,877    +4.4e-4, +8e-5        1.9
+truss        +1.4e-3, +8.4e-4      152      +1.3e-3, +7.9e-4      4.7
+truss_high   +1.4e-3, +8.5e-4      1,250    +1.5e-3, +8.8e-4      7.6
+ladder       +3.6e-7, -5.6e-7      0.003    +2e-7, +9.4e-6        0.44
+plate        +2.4e-6, +3e-7        0.044    +3.9e-6, +1.4e-5      0.70
+cluster      +1.0e-4, +2e-6 (a)    35       +8.1e-4, +3.4e-5      1.6
 =========== ===================== ======== ===================== =======
 
-(a) +5e-5, +4e-5 at 7,812 on another machine with the same code: 7,800x above its floor the
-noise-free cluster's cost is flat enough for the BLAS kernels' round-off to move the end point
-by 2.4e-4, still 35x inside the issue's 0.01.
-
-Every parameter is within 5e-4 of the truth.  At 1% three members end at the floor; the two
-trusses do not (13.8x, 22.4x), and noise-free none does: a noise-free floor is the
-curvature left at the line spacing (1e-7 to 1e-9), so the reduced models' own truncation
-shows -- the trusses' test data are themselves a reduction (28 modes and the shakers' static
-modes, :func:`sdctrl.testbed_frf`) which the update's basis (modes to 2.5x the band top,
-static modes of the shakers and the parameters' loads) does not reproduce to the noise
-(the verdict points at the damping: 57% of the excess at the resonances).  The noise-free
-cluster is the one member whose default basis grows (modes to 225 Hz,
+(a) the one member whose default basis grows (modes to 225 Hz,
 :mod:`sdctrl.updating._basis_growth`).
+
+Since two changes (before: truss -5e-5 / -3e-5 at 490 / 13.8, truss_high -1.2e-4 /
+-1.0e-4 at 3,932 / 22.4, ladder +4.5e-4 at 20 / 3.7, plate +7e-5 / +9e-5 at 22 / 1.0,
+cluster +2.9e-4 / +4.4e-4 at 7,877 / 1.9):
+
+- the parameters carry the model's Rayleigh damping (``FEModel.stiffness_parameter``:
+  ``beta dK``, ``alpha dM``): with ``C`` fixed the ladder's rungs were 4.5e-4 off, exactly
+  the damping the stiffer rungs bring (the true ``C`` given: 2.6e-7);
+- the logLS is refined on the basis built around the re-solved model while that moves the
+  parameters by a tenth of a standard deviation (``updating._final_stages``: the plate
+  noise-free 1.3e-4 -> 2.4e-6);
+- every member's final cost is lower (the ratios above; the noise-free cluster 7,877 ->
+  35), and at 1% every member is at its floor (was: three of five).
+
+The cluster's hub at 1% moved 4.4e-4 -> 8.1e-4, within its standard deviation (5.5e-4):
+the default basis's truncation (a basis grown while it moves the parameters takes it to
+1.2e-4, measured and not kept: ``_basis_growth``).  The trusses' errors grew (5e-5 ->
+1.4e-3, still 7x inside the issue's 0.01).  Their test
+data are not their FE model's response but a modal reduction of it (:func:`sdctrl.testbed_frf`,
+modes to five times the band top, static corrections with projected damping; logLS 3.5e-4
+from the FE model at the true parameters, noise-free, 7x the 1% floor): no parameter value
+reproduces them, and where a fit lands depends on the model that fits them -- the full FE
+model's own optimum against these data (a direct solve at each step) is -1.7e-3 / -1.1e-3
+from the truth, this update's +1.3e-3 / +7.9e-4, the previous one's -5e-5 / -1e-5.  The
+update fits the data better now (ratio 13.8 -> 4.7 at 1%) and its standard deviation covers
+its error (1.2e-3, the sensors' scatter: ``tests/test_update_std.py``).
 """
 
 import functools
@@ -39,13 +54,13 @@ import sdctrl as sd
 
 #: (largest |error| of the two parameters, final cost / noise floor) per (member, noise)
 MEASURED = {
-    ("truss", 0.0): (5e-5, 490), ("truss", 0.01): (3e-5, 13.8),
-    ("truss_high", 0.0): (1.2e-4, 3932), ("truss_high", 0.01): (1.0e-4, 22.4),
-    ("ladder", 0.0): (4.5e-4, 20.3), ("ladder", 0.01): (4.5e-4, 3.7),
-    ("plate", 0.0): (7e-5, 22.4), ("plate", 0.01): (9e-5, 1.0),
-    ("cluster", 0.0): (2.9e-4, 7877), ("cluster", 0.01): (4.4e-4, 1.9),
+    ("truss", 0.0): (1.39e-3, 152), ("truss", 0.01): (1.33e-3, 4.69),
+    ("truss_high", 0.0): (1.42e-3, 1250), ("truss_high", 0.01): (1.47e-3, 7.64),
+    ("ladder", 0.0): (5.6e-7, 0.0026), ("ladder", 0.01): (9.4e-6, 0.44),
+    ("plate", 0.0): (2.4e-6, 0.044), ("plate", 0.01): (1.4e-5, 0.70),
+    ("cluster", 0.0): (1.03e-4, 35.2), ("cluster", 0.01): (8.06e-4, 1.61),
 }
-AT_FLOOR = {("ladder", 0.01), ("plate", 0.01), ("cluster", 0.01)}
+ABOVE = {("truss", 0.0), ("truss_high", 0.0), ("cluster", 0.0)}
 GROWN = {("cluster", 0.0)}
 
 
@@ -67,8 +82,8 @@ def test_update_locked_per_member(name, noise):
     print(f"\n{name} {noise}: error {err:.2g}, ratio {r.fit.ratio:.1f}")
     assert err <= (0.01 if noise == 0 else 0.02)                # the issue's targets
     assert err <= 1.5 * ref_err + 2e-5                          # locked
-    assert r.fit.ratio <= 1.5 * ref_ratio
-    assert r.fit.above == ((name, noise) not in AT_FLOOR)
+    assert r.fit.ratio <= 1.5 * ref_ratio + 0.01
+    assert r.fit.above == ((name, noise) in ABOVE)
     grown = any(s["stage"].startswith("basis grown") for s in r.stages)
     assert grown == ((name, noise) in GROWN)
     assert r.cost_after < r.cost_before
