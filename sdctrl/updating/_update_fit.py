@@ -38,9 +38,9 @@ from sdctrl.fe._fe_model import check_fe_model
 from sdctrl.updating._basis_growth import grown, on_richer_basis
 from sdctrl.updating._final_stages import Solved, refined, resolved
 from sdctrl.updating._fit_floor import FitFloor, basis_limited, fit_floor
-from sdctrl.updating._global_start import StartBox, fit_stages, solve_bounded
+from sdctrl.updating._global_start import StartBox, fit_stages
 from sdctrl.updating._placed_test import measured_modes, place_test
-from sdctrl.updating._problem import apply_parameters, build_problem
+from sdctrl.updating._problem import build_problem
 from sdctrl.updating._update_statistics import fitted_std
 
 __all__ = ["UpdateResult", "check_parameters", "damping_choice", "update"]
