@@ -28,6 +28,7 @@ import scipy.sparse as sp
 from sdctrl.fe._elements import DIRECTIONS, DIR_INDEX, assemble_coo, member_matrices
 from sdctrl.fe._fe_model import FEModel
 from sdctrl.fe._groups import Assembly
+from sdctrl.fe._parameters import check_rayleigh
 
 __all__ = ["assemble"]
 
@@ -88,7 +89,7 @@ def assemble(nodes, elements, materials=None, sections=None, bc=None, *,
     ('B.x', 'B.y', 'B.z')
     """
 
-    rayleigh = _check_rayleigh(rayleigh)
+    rayleigh = None if rayleigh is None else check_rayleigh(rayleigh)
     names, xyz = _parse_nodes(nodes)
     materials = dict(materials or {})
     sections = dict(sections or {})
@@ -302,20 +303,6 @@ def _discrete(items, gidx, N):
     v = np.array([x for _, _, x in items])
     Ke = v[:, None, None] * np.array([[1.0, -1.0], [-1.0, 1.0]])
     return assemble_coo(np.stack([ia, ib], axis=1), Ke, N)
-
-
-def _check_rayleigh(rayleigh):
-    """``(alpha, beta)`` as two finite floats >= 0, or None."""
-    if rayleigh is None:
-        return None
-    try:
-        vals = tuple(float(v) for v in rayleigh)
-    except (TypeError, ValueError):
-        raise TypeError(f"rayleigh must be two numbers (alpha, beta), got {rayleigh!r}") from None
-    if len(vals) != 2 or not all(np.isfinite(v) and v >= 0 for v in vals):
-        raise ValueError(f"rayleigh must be two finite numbers >= 0 (alpha, beta), got "
-                         f"{rayleigh!r}")
-    return vals
 
 
 def _damping(C, M, K, rayleigh):

@@ -113,7 +113,7 @@ class Parameter:
         sets(self, "bounds", check_bounds(self.bounds, f"Parameter {self.name!r}: bounds"))
         sets(self, "scale", check_scalar(self.scale, f"Parameter {self.name!r}: scale",
                                          positive=True, optional=True))
-        sets(self, "rayleigh", _check_law(self.rayleigh, f"Parameter {self.name!r}: rayleigh"))
+        sets(self, "rayleigh", check_rayleigh(self.rayleigh, f"Parameter {self.name!r}: rayleigh"))
         if self.description is None:
             sets(self, "description", "")
         elif not isinstance(self.description, str):
@@ -163,8 +163,9 @@ class Parameter:
         return self.dM, dC, self.dK
 
 
-def _check_law(law, name: str) -> tuple[float, float]:
-    """``(alpha, beta)`` as two finite floats >= 0."""
+def check_rayleigh(law, name: str = "rayleigh") -> tuple[float, float]:
+    """Rayleigh coefficients ``(alpha, beta)`` as two finite floats >= 0 (``Parameter.rayleigh``,
+    :func:`sdctrl.fe.assemble`)."""
     try:
         vals = tuple(float(v) for v in law)
     except (TypeError, ValueError):
