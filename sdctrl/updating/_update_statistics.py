@@ -22,8 +22,8 @@ sensors' scatter (:mod:`sdctrl._lib.sensor_scatter`: the leverage-corrected leav
 covariance, the same rule as a diagnosis's ``Effect.std``).  Measured on the family of test
 structures at 1% noise (seeds 1-2): the trusses' test data are a modal reduction of their
 FE model (logLS 3.5e-4 from it at the true parameters, noise-free), the links come out
-2.2e-3 off, 99 noise standard deviations and 1.4 of the scatter's; on the ladder, the plate,
-the cluster and a held-out tower, whose data are their FE model's, both agree (0.1-2.4
+1.3e-3 off, 60 noise standard deviations and 1.1 of the scatter's; on the ladder, the plate,
+the cluster and a held-out tower, whose data are their FE model's, both agree (0.1-1.5
 standard deviations).
 """
 
